@@ -1,0 +1,3 @@
+//! Automatic differentiation for usray (work in progress: see issue 2).
+mod real;
+pub use real::Real;

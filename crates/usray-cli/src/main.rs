@@ -1,0 +1,2 @@
+//! The `usray` binary.
+fn main() {}

@@ -1,0 +1,1 @@
+//! usray-geometry: placeholder, filled by its issue.

@@ -1,0 +1,1 @@
+//! usray-optim: placeholder, filled by its issue.

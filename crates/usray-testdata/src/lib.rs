@@ -1,0 +1,53 @@
+//! Locates the shared reference data that usray's tests read in place.
+//!
+//! Lookup order: `$USRAY_TEST_DATA`, then `../shared/data` next to the workspace
+//! root. A user's fresh clone has neither: [`data_file`] then prints that the test
+//! was skipped and returns `None`, so the test passes. Under CI (`CI=true`) missing
+//! data is a failure, so a wrong path can never pass silently.
+//!
+//! ```
+//! // In a test:
+//! let Some(path) = usray_testdata::data_file("peers/points.json") else { return };
+//! assert!(path.exists());
+//! ```
+
+use std::path::{Path, PathBuf};
+
+/// The data root, if one exists: `$USRAY_TEST_DATA`, else `<workspace>/../shared/data`.
+pub fn data_root() -> Option<PathBuf> {
+    if let Some(dir) = std::env::var_os("USRAY_TEST_DATA") {
+        let dir = PathBuf::from(dir);
+        return dir.is_dir().then_some(dir);
+    }
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = workspace.join("../shared/data");
+    dir.is_dir().then(|| dir.canonicalize().unwrap_or(dir))
+}
+
+/// True when running under CI (`CI` set to `true` or `1`).
+pub fn under_ci() -> bool {
+    matches!(std::env::var("CI").as_deref(), Ok("true") | Ok("1"))
+}
+
+/// The path of `relative` (e.g. `"real/PWI_disk.mat"`) inside the data root.
+///
+/// Returns `None` and prints a skip notice when the file is missing outside CI.
+///
+/// # Panics
+/// Under CI (`CI=true`) a missing file panics, naming every place looked in.
+pub fn data_file(relative: &str) -> Option<PathBuf> {
+    let found = data_root()
+        .map(|root| root.join(relative))
+        .filter(|p| p.exists());
+    if found.is_none() {
+        let msg = format!(
+            "test data `{relative}` not found (looked in $USRAY_TEST_DATA = {:?}, then ../shared/data beside the workspace)",
+            std::env::var_os("USRAY_TEST_DATA")
+        );
+        if under_ci() {
+            panic!("{msg}; CI=true, so missing data is a failure");
+        }
+        eprintln!("SKIPPED: {msg}");
+    }
+    found
+}

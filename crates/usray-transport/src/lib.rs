@@ -1,0 +1,1 @@
+//! usray-transport: placeholder, filled by its issue.
