@@ -160,7 +160,11 @@ pub trait Real:
     #[inline]
     fn powi(self, n: i32) -> Self {
         let x = self.value();
-        let d = if n == 0 { 0.0 } else { f64::from(n) * x.powi(n - 1) };
+        let d = if n == 0 {
+            0.0
+        } else {
+            f64::from(n) * x.powi(n - 1)
+        };
         self.chain(x.powi(n), d)
     }
 
@@ -170,7 +174,11 @@ pub trait Real:
     fn powf(self, y: Self) -> Self {
         let (xv, yv) = (self.value(), y.value());
         let f = xv.powf(yv);
-        let dfdx = if yv == 0.0 { 0.0 } else { yv * xv.powf(yv - 1.0) };
+        let dfdx = if yv == 0.0 {
+            0.0
+        } else {
+            yv * xv.powf(yv - 1.0)
+        };
         let dfdy = if xv > 0.0 { f * xv.ln() } else { 0.0 };
         self.chain2(y, f, dfdx, dfdy)
     }
@@ -201,7 +209,11 @@ pub trait Real:
     fn atan2(self, x: Self) -> Self {
         let (yv, xv) = (self.value(), x.value());
         let r2 = xv * xv + yv * yv;
-        let (dy, dx) = if r2 > 0.0 { (xv / r2, -yv / r2) } else { (0.0, 0.0) };
+        let (dy, dx) = if r2 > 0.0 {
+            (xv / r2, -yv / r2)
+        } else {
+            (0.0, 0.0)
+        };
         self.chain2(x, yv.atan2(xv), dy, dx)
     }
 
