@@ -1,0 +1,644 @@
+//! Reverse mode: a `Copy` variable [`Var`] recorded on a thread-local tape.
+//!
+//! Each thread (each rayon worker) owns one tape. A [`Recording`] claims it:
+//! inputs are created with [`Recording::input`], generic code runs in [`Var`]
+//! (every operation appends one node: at most two parents and their partials),
+//! and [`Recording::gradient`] sweeps the tape backwards once, *adding*
+//! `∂y/∂xᵢ` into a caller-provided slice. Dropping the recording (or
+//! [`Recording::restart`]) clears the tape but keeps its memory, so a per-path
+//! loop allocates nothing once the tape has grown to the longest path. Nothing
+//! is shared between threads, so results do not depend on scheduling.
+//!
+//! Constants ([`Var::constant`], [`Real::from_f64`], [`Real::detach`]) carry the
+//! sentinel index 0 and create no node; operations on constants only are not
+//! recorded at all.
+//!
+//! ```
+//! use usray_ad::reverse::{Recording, Var};
+//! use usray_ad::Real;
+//!
+//! fn tof<T: Real>(depth: T, c: T) -> T {
+//!     (depth + depth) / c // two-way time of flight
+//! }
+//! let mut grad = [0.0; 2];
+//! let rec = Recording::start();
+//! let (d, c) = (rec.input(0.03), rec.input(1540.0));
+//! let t = tof(d, c);
+//! rec.gradient(t, &mut grad);
+//! drop(rec); // tape cleared, memory kept for the next path
+//! assert_eq!(t.value(), 0.06 / 1540.0);
+//! assert_eq!(grad, [2.0 / 1540.0, -0.06 / (1540.0 * 1540.0)]);
+//! ```
+//!
+//! # Misuse
+//! - Starting a second [`Recording`] on a thread while one is live panics
+//!   (`nested reverse-mode recordings are not supported`). Nest forward mode
+//!   ([`crate::Dual`]) inside reverse mode instead if needed.
+//! - Operating on a [`Var`] whose recording has ended, or that belongs to
+//!   another thread's recording, panics with a message saying so: every `Var`
+//!   carries the id of its recording, checked at every operation. (Ids are a
+//!   32-bit global counter; a stale `Var` kept across ~4·10⁹ recordings could in
+//!   principle alias, which is why this is documented as best effort.)
+//! - Constants never panic: they belong to no recording.
+//!
+//! No `unsafe` is used anywhere.
+
+use crate::Real;
+use core::cell::RefCell;
+use core::cmp::Ordering;
+use core::iter::Sum;
+use core::marker::PhantomData;
+use core::ops::{Add, AddAssign, Div, DivAssign, Mul, MulAssign, Neg, Sub, SubAssign};
+use core::sync::atomic::{AtomicU32, Ordering as AtomicOrdering};
+
+/// A reverse-mode variable: a value and the index of its tape node.
+///
+/// `Copy`, 16 bytes. Comparisons (`==`, `<`, …) look at the value only.
+///
+/// ```
+/// use usray_ad::reverse::Var;
+/// use usray_ad::Real;
+/// let c = Var::constant(2.0); // usable anywhere, never recorded
+/// assert_eq!((c * c).value(), 4.0);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Var {
+    value: f64,
+    /// Node index on the tape; 0 = constant (node 0 is a dummy sink).
+    index: u32,
+    /// Id of the recording the node belongs to (ignored for constants).
+    rec: u32,
+}
+
+/// One tape entry: `adj[a] += adj[self]·da`, `adj[b] += adj[self]·db`.
+/// Unary nodes point `b` at the dummy node 0 with `db = 0`; input nodes point
+/// both at 0. This keeps the reverse sweep free of branches on arity.
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    a: u32,
+    b: u32,
+    da: f64,
+    db: f64,
+}
+
+const DUMMY: Node = Node {
+    a: 0,
+    b: 0,
+    da: 0.0,
+    db: 0.0,
+};
+
+/// The per-thread tape. `rec == 0` means no recording is live.
+struct Tape {
+    rec: u32,
+    nodes: Vec<Node>,
+    inputs: Vec<u32>,
+    adj: Vec<f64>,
+}
+
+thread_local! {
+    static TAPE: RefCell<Tape> = const {
+        RefCell::new(Tape { rec: 0, nodes: Vec::new(), inputs: Vec::new(), adj: Vec::new() })
+    };
+}
+
+/// Source of recording ids, unique across threads (0 is reserved for "none").
+static NEXT_REC: AtomicU32 = AtomicU32::new(1);
+
+fn fresh_id() -> u32 {
+    loop {
+        let id = NEXT_REC.fetch_add(1, AtomicOrdering::Relaxed);
+        if id != 0 {
+            return id;
+        }
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn stale(var_rec: u32, tape_rec: u32) -> ! {
+    if tape_rec == 0 {
+        panic!(
+            "usray_ad::reverse: a Var was used after its Recording ended (no recording is \
+             live on this thread); Vars are only valid inside the Recording that made them"
+        );
+    }
+    panic!(
+        "usray_ad::reverse: a Var from recording #{var_rec} was used in recording \
+         #{tape_rec}: it outlived its Recording or belongs to another thread's tape"
+    );
+}
+
+impl Tape {
+    #[inline(always)]
+    fn push(&mut self, node: Node) -> u32 {
+        let i = self.nodes.len();
+        debug_assert!(i < u32::MAX as usize, "reverse tape overflow");
+        self.nodes.push(node);
+        i as u32
+    }
+
+    /// Reset for a new recording `id`, keeping capacity.
+    fn begin(&mut self, id: u32) {
+        self.rec = id;
+        self.nodes.clear();
+        self.inputs.clear();
+        self.nodes.push(DUMMY);
+    }
+}
+
+impl Var {
+    /// A constant (no derivative, no tape node); valid in any recording and
+    /// outside recordings.
+    ///
+    /// ```
+    /// use usray_ad::reverse::Var;
+    /// use usray_ad::Real;
+    /// assert_eq!(Var::constant(1.5).value(), 1.5);
+    /// ```
+    #[inline(always)]
+    pub const fn constant(value: f64) -> Self {
+        Self {
+            value,
+            index: 0,
+            rec: 0,
+        }
+    }
+
+    /// True for a constant (a `Var` that carries no derivative).
+    ///
+    /// ```
+    /// use usray_ad::reverse::{Recording, Var};
+    /// use usray_ad::Real;
+    /// let rec = Recording::start();
+    /// let x = rec.input(1.0);
+    /// assert!(!x.is_constant());
+    /// assert!(x.detach().is_constant());
+    /// ```
+    #[inline(always)]
+    pub const fn is_constant(self) -> bool {
+        self.index == 0
+    }
+}
+
+/// Exclusive use of this thread's tape, from [`Recording::start`] to drop.
+///
+/// Not `Send`: the tape belongs to the thread. Inputs are numbered in creation
+/// order; gradients are returned in that order.
+///
+/// Per-path use (what the transport does), allocation-free in steady state:
+/// ```
+/// use usray_ad::reverse::Recording;
+/// use usray_ad::Real;
+/// let theta = [1.0, 2.0];
+/// let mut grad = vec![0.0; 2];
+/// let mut rec = Recording::start();
+/// for path in 0..3 {
+///     rec.restart(); // new path: tape emptied, memory kept
+///     let p = rec.inputs_array::<2>(&theta);
+///     let deposit = p[0] * p[1] * f64::from(path); // path-dependent
+///     rec.gradient(deposit, &mut grad); // accumulates over paths
+/// }
+/// assert_eq!(grad, [2.0 * 3.0, 1.0 * 3.0]); // Σ_path path · (θ₁, θ₀)
+/// ```
+pub struct Recording {
+    id: u32,
+    _not_send: PhantomData<*const ()>,
+}
+
+impl Recording {
+    /// Claim this thread's tape and start recording.
+    ///
+    /// # Panics
+    /// If a recording is already live on this thread (nesting is not supported).
+    ///
+    /// ```
+    /// use usray_ad::reverse::Recording;
+    /// let rec = Recording::start();
+    /// let x = rec.input(2.0);
+    /// drop(rec);
+    /// ```
+    pub fn start() -> Self {
+        let id = fresh_id();
+        TAPE.with(|t| {
+            let t = &mut *t.borrow_mut();
+            assert!(
+                t.rec == 0,
+                "usray_ad::reverse: nested reverse-mode recordings are not supported \
+                 (a Recording is already live on this thread)"
+            );
+            t.begin(id);
+        });
+        Self {
+            id,
+            _not_send: PhantomData,
+        }
+    }
+
+    /// Clear the tape and continue as a fresh recording (a new id: `Var`s made
+    /// before the restart become invalid). Memory is kept. Equivalent to dropping
+    /// and restarting, without giving the tape up.
+    pub fn restart(&mut self) {
+        let id = fresh_id();
+        TAPE.with(|t| t.borrow_mut().begin(id));
+        self.id = id;
+    }
+
+    /// A new input variable with value `x`; inputs are numbered in creation order.
+    #[inline]
+    pub fn input(&self, x: f64) -> Var {
+        TAPE.with(|t| {
+            let t = &mut *t.borrow_mut();
+            let i = t.push(DUMMY);
+            t.inputs.push(i);
+            Var {
+                value: x,
+                index: i,
+                rec: self.id,
+            }
+        })
+    }
+
+    /// One input per element of `xs`, written into `out` (no allocation).
+    ///
+    /// # Panics
+    /// If `out.len() != xs.len()`.
+    pub fn inputs_into(&self, xs: &[f64], out: &mut [Var]) {
+        assert_eq!(xs.len(), out.len(), "inputs_into: length mismatch");
+        for (o, &x) in out.iter_mut().zip(xs) {
+            *o = self.input(x);
+        }
+    }
+
+    /// `N` inputs as an array (no allocation).
+    ///
+    /// # Panics
+    /// If `xs.len() != N`.
+    ///
+    /// ```
+    /// use usray_ad::reverse::Recording;
+    /// use usray_ad::Real;
+    /// let rec = Recording::start();
+    /// let [a, b] = rec.inputs_array::<2>(&[1.0, 2.0]);
+    /// assert_eq!((a + b).value(), 3.0);
+    /// ```
+    pub fn inputs_array<const N: usize>(&self, xs: &[f64]) -> [Var; N] {
+        assert_eq!(xs.len(), N, "inputs_array: length mismatch");
+        core::array::from_fn(|i| self.input(xs[i]))
+    }
+
+    /// Number of inputs created so far in this recording.
+    pub fn num_inputs(&self) -> usize {
+        TAPE.with(|t| t.borrow().inputs.len())
+    }
+
+    /// Number of tape nodes recorded so far (including one dummy node and the
+    /// inputs): a measure of the recording's size.
+    pub fn len(&self) -> usize {
+        TAPE.with(|t| t.borrow().nodes.len())
+    }
+
+    /// True when nothing but the dummy node is on the tape.
+    pub fn is_empty(&self) -> bool {
+        self.len() <= 1
+    }
+
+    /// Add `∂y/∂xᵢ` to `grad[i]` for every input `xᵢ` (in creation order).
+    /// The tape is left intact, so several outputs may be differentiated in turn.
+    ///
+    /// # Panics
+    /// If `grad.len()` differs from the number of inputs, or `y` belongs to
+    /// another recording.
+    pub fn gradient(&self, y: Var, grad: &mut [f64]) {
+        self.vjp(&[y], &[1.0], grad);
+    }
+
+    /// Vector-Jacobian product: add `Σⱼ wⱼ·∂yⱼ/∂xᵢ` to `grad[i]`, in one sweep.
+    /// This is how a path with several deposits (`ā_k·a_k + τ̄_k·τ_k`) is
+    /// differentiated at once.
+    ///
+    /// # Panics
+    /// If `ys.len() != ws.len()`, `grad.len()` differs from the number of inputs,
+    /// or a `y` belongs to another recording.
+    ///
+    /// ```
+    /// use usray_ad::reverse::Recording;
+    /// use usray_ad::Real;
+    /// let rec = Recording::start();
+    /// let [x, y] = rec.inputs_array::<2>(&[3.0, 5.0]);
+    /// let mut g = [0.0; 2];
+    /// rec.vjp(&[x * y, x + y], &[1.0, 10.0], &mut g);
+    /// assert_eq!(g, [5.0 + 10.0, 3.0 + 10.0]);
+    /// ```
+    pub fn vjp(&self, ys: &[Var], ws: &[f64], grad: &mut [f64]) {
+        assert_eq!(
+            ys.len(),
+            ws.len(),
+            "vjp: {} outputs but {} weights",
+            ys.len(),
+            ws.len()
+        );
+        TAPE.with(|t| {
+            let t = &mut *t.borrow_mut();
+            debug_assert_eq!(t.rec, self.id);
+            assert_eq!(
+                grad.len(),
+                t.inputs.len(),
+                "gradient: grad has length {} but the recording has {} inputs",
+                grad.len(),
+                t.inputs.len()
+            );
+            let Tape {
+                rec,
+                nodes,
+                inputs,
+                adj,
+            } = t;
+            let mut top = 0usize;
+            adj.clear();
+            adj.resize(nodes.len(), 0.0);
+            for (y, &w) in ys.iter().zip(ws) {
+                if y.index == 0 {
+                    continue;
+                }
+                if y.rec != *rec {
+                    stale(y.rec, *rec);
+                }
+                let i = y.index as usize;
+                adj[i] += w;
+                top = top.max(i);
+            }
+            sweep(nodes, adj, top);
+            for (g, &i) in grad.iter_mut().zip(inputs.iter()) {
+                *g += adj[i as usize];
+            }
+        });
+    }
+}
+
+/// The reverse sweep: nodes `top, top−1, …, 1`, each pushing its adjoint to
+/// its parents. A zero adjoint is not propagated (so an infinite partial on a
+/// branch that does not reach the output gives 0, not `0·∞ = NaN`; the same
+/// convention as [`crate::Dual`]).
+#[inline]
+fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
+    let nodes = &nodes[..=top];
+    let adj = &mut adj[..=top];
+    for i in (1..=top).rev() {
+        let g = adj[i];
+        if g != 0.0 {
+            let n = nodes[i];
+            adj[n.a as usize] += g * n.da;
+            adj[n.b as usize] += g * n.db;
+        }
+    }
+}
+
+impl Drop for Recording {
+    fn drop(&mut self) {
+        // `try_with`: the thread-local may already be gone during thread exit.
+        let _ = TAPE.try_with(|t| {
+            if let Ok(mut t) = t.try_borrow_mut() {
+                if t.rec == self.id {
+                    t.rec = 0;
+                    t.nodes.clear();
+                    t.inputs.clear();
+                }
+            }
+        });
+    }
+}
+
+/// Capacity (in nodes) of this thread's tape: stays constant once a per-path
+/// loop has reached its longest path, which is how the tests check that the
+/// steady state does not allocate.
+///
+/// ```
+/// use usray_ad::reverse;
+/// let _ = reverse::tape_capacity();
+/// ```
+pub fn tape_capacity() -> usize {
+    TAPE.with(|t| {
+        let t = t.borrow();
+        t.nodes.capacity() + t.adj.capacity() + t.inputs.capacity()
+    })
+}
+
+/// Value and gradient of `f` at `x`, recorded on this thread's tape.
+/// Convenience for tests and small problems (allocates the result); use
+/// [`Recording`] in hot loops, or [`crate::helpers`] for generic functions.
+///
+/// ```
+/// use usray_ad::reverse;
+/// use usray_ad::Real;
+/// let (v, g) = reverse::gradient(|x| x[0] * x[1].sin(), &[2.0, 0.0]);
+/// assert_eq!(v, 0.0);
+/// assert_eq!(g, vec![0.0, 2.0]);
+/// ```
+pub fn gradient<F: FnOnce(&[Var]) -> Var>(f: F, x: &[f64]) -> (f64, Vec<f64>) {
+    let rec = Recording::start();
+    let vars: Vec<Var> = x.iter().map(|&xi| rec.input(xi)).collect();
+    let y = f(&vars);
+    let mut g = vec![0.0; x.len()];
+    rec.gradient(y, &mut g);
+    (y.value, g)
+}
+
+impl Real for Var {
+    #[inline(always)]
+    fn from_f64(x: f64) -> Self {
+        Self::constant(x)
+    }
+
+    #[inline(always)]
+    fn value(self) -> f64 {
+        self.value
+    }
+
+    /// Records `y = f(x)` with partial `df`.
+    #[inline(always)]
+    fn chain(self, f: f64, df: f64) -> Self {
+        if self.index == 0 {
+            return Self::constant(f);
+        }
+        TAPE.with(|t| {
+            let t = &mut *t.borrow_mut();
+            if self.rec != t.rec {
+                stale(self.rec, t.rec);
+            }
+            let index = t.push(Node {
+                a: self.index,
+                b: 0,
+                da: df,
+                db: 0.0,
+            });
+            Self {
+                value: f,
+                index,
+                rec: t.rec,
+            }
+        })
+    }
+
+    /// Records `z = g(x, y)` with partials `dfdx`, `dfdy` (one node; a constant
+    /// argument points at the dummy node).
+    #[inline(always)]
+    fn chain2(self, other: Self, f: f64, dfdx: f64, dfdy: f64) -> Self {
+        if (self.index | other.index) == 0 {
+            return Self::constant(f);
+        }
+        TAPE.with(|t| {
+            let t = &mut *t.borrow_mut();
+            if (self.index != 0 && self.rec != t.rec) || (other.index != 0 && other.rec != t.rec) {
+                let bad = if self.index != 0 && self.rec != t.rec {
+                    self.rec
+                } else {
+                    other.rec
+                };
+                stale(bad, t.rec);
+            }
+            let index = t.push(Node {
+                a: self.index,
+                b: other.index,
+                da: dfdx,
+                db: dfdy,
+            });
+            Self {
+                value: f,
+                index,
+                rec: t.rec,
+            }
+        })
+    }
+}
+
+impl PartialEq for Var {
+    /// Compares values only.
+    #[inline]
+    fn eq(&self, other: &Self) -> bool {
+        self.value == other.value
+    }
+}
+
+impl PartialOrd for Var {
+    /// Compares values only.
+    #[inline]
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        self.value.partial_cmp(&other.value)
+    }
+}
+
+impl Default for Var {
+    /// The constant 0.
+    #[inline]
+    fn default() -> Self {
+        Self::constant(0.0)
+    }
+}
+
+impl From<f64> for Var {
+    /// A constant.
+    #[inline]
+    fn from(x: f64) -> Self {
+        Self::constant(x)
+    }
+}
+
+impl Add for Var {
+    type Output = Self;
+    /// ∂(x+y)/∂x = 1, ∂(x+y)/∂y = 1.
+    #[inline(always)]
+    fn add(self, rhs: Self) -> Self {
+        self.chain2(rhs, self.value + rhs.value, 1.0, 1.0)
+    }
+}
+
+impl Sub for Var {
+    type Output = Self;
+    /// ∂(x−y)/∂x = 1, ∂(x−y)/∂y = −1.
+    #[inline(always)]
+    fn sub(self, rhs: Self) -> Self {
+        self.chain2(rhs, self.value - rhs.value, 1.0, -1.0)
+    }
+}
+
+impl Mul for Var {
+    type Output = Self;
+    /// ∂(x·y)/∂x = y, ∂(x·y)/∂y = x.
+    #[inline(always)]
+    fn mul(self, rhs: Self) -> Self {
+        self.chain2(rhs, self.value * rhs.value, rhs.value, self.value)
+    }
+}
+
+impl Div for Var {
+    type Output = Self;
+    /// ∂(x/y)/∂x = 1/y, ∂(x/y)/∂y = −(x/y)/y.
+    #[inline(always)]
+    fn div(self, rhs: Self) -> Self {
+        let inv = 1.0 / rhs.value;
+        let q = self.value * inv;
+        self.chain2(rhs, q, inv, -q * inv)
+    }
+}
+
+impl Neg for Var {
+    type Output = Self;
+    /// d(−x)/dx = −1.
+    #[inline(always)]
+    fn neg(self) -> Self {
+        self.chain(-self.value, -1.0)
+    }
+}
+
+/// `Var ∘ f64` and `f64 ∘ Var` by promoting the `f64` to a constant.
+macro_rules! mixed_ops {
+    ($($tr:ident $m:ident $atr:ident $am:ident),*) => {$(
+        impl $tr<f64> for Var {
+            type Output = Self;
+            #[inline(always)]
+            fn $m(self, rhs: f64) -> Self {
+                $tr::$m(self, Self::constant(rhs))
+            }
+        }
+        impl $tr<Var> for f64 {
+            type Output = Var;
+            #[inline(always)]
+            fn $m(self, rhs: Var) -> Var {
+                $tr::$m(Var::constant(self), rhs)
+            }
+        }
+        impl $atr for Var {
+            #[inline(always)]
+            fn $am(&mut self, rhs: Self) {
+                *self = $tr::$m(*self, rhs);
+            }
+        }
+        impl $atr<f64> for Var {
+            #[inline(always)]
+            fn $am(&mut self, rhs: f64) {
+                *self = $tr::$m(*self, Self::constant(rhs));
+            }
+        }
+    )*};
+}
+mixed_ops!(
+    Add add AddAssign add_assign,
+    Sub sub SubAssign sub_assign,
+    Mul mul MulAssign mul_assign,
+    Div div DivAssign div_assign
+);
+
+impl Sum for Var {
+    #[inline]
+    fn sum<I: Iterator<Item = Self>>(iter: I) -> Self {
+        iter.fold(Self::constant(0.0), |a, b| a + b)
+    }
+}
+
+impl<'a> Sum<&'a Var> for Var {
+    #[inline]
+    fn sum<I: Iterator<Item = &'a Self>>(iter: I) -> Self {
+        iter.fold(Self::constant(0.0), |a, b| a + *b)
+    }
+}
