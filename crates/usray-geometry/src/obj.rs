@@ -1,0 +1,1 @@
+//! OBJ reading and writing (filled below).

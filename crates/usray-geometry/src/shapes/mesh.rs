@@ -1,0 +1,550 @@
+//! Triangle meshes: [`TriangleMesh`] (object-frame data), [`MeshBvh`] (an `f32`
+//! `obvhs` CWBVH over world-space triangles, no gradients) and [`MeshInstance`]
+//! (a mesh placed by a differentiable `world_from_object` transform).
+//!
+//! Hit *finding* traverses the `f32` BVH (bounding boxes padded so that `f32`
+//! rounding never culls a true hit) and tests candidate triangles in `f64`
+//! against the world-space vertices (Möller & Trumbore, "Fast, minimum storage
+//! ray-triangle intersection", J. Graphics Tools 2(1), 1997). Hit *quantities* are
+//! then recomputed in `T` by the same formula on the triangle's object-frame
+//! vertices mapped by the `T` transform, so `t`, the point and the normal carry
+//! derivatives with respect to translation, rotation and scale.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use glam::Vec3A;
+use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::RayHit, BvhBuildParams};
+use usray_ad::Real;
+
+use crate::{MeshError, Ray, Transform, Vec3};
+
+/// An indexed triangle mesh in its object frame (metres).
+///
+/// Triangles are wound counter-clockwise seen from outside: the geometric normal
+/// `(v1 − v0) × (v2 − v0)` points **out of** the solid. A closed mesh (every edge
+/// shared by exactly two triangles, traversed in opposite directions) bounds a
+/// solid, which is what ray parity ([`MeshInstance::contains`]) and the
+/// enter/exit convention need. [`TriangleMesh::orient_outward`] fixes a closed
+/// mesh wound the other way.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct TriangleMesh {
+    /// Vertex positions, metres, object frame.
+    pub positions: Vec<[f64; 3]>,
+    /// Vertex indices of each triangle (counter-clockwise seen from outside).
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriangleMesh {
+    /// A mesh from positions and triangles, checked: at least one triangle, every
+    /// index in range, every coordinate finite.
+    pub fn new(positions: Vec<[f64; 3]>, triangles: Vec<[u32; 3]>) -> Result<Self, MeshError> {
+        let m = Self {
+            positions,
+            triangles,
+        };
+        m.check("<memory>")?;
+        Ok(m)
+    }
+
+    /// The checks of [`TriangleMesh::new`], naming `source` in errors.
+    pub fn check(&self, source: &str) -> Result<(), MeshError> {
+        if self.triangles.is_empty() {
+            return Err(MeshError::NoTriangles {
+                file: source.to_string(),
+            });
+        }
+        for (i, p) in self.positions.iter().enumerate() {
+            if !p.iter().all(|c| c.is_finite()) {
+                return Err(MeshError::NonFiniteVertex {
+                    file: source.to_string(),
+                    vertex: i,
+                });
+            }
+        }
+        let n = self.positions.len();
+        for (i, t) in self.triangles.iter().enumerate() {
+            if t.iter().any(|&k| k as usize >= n) {
+                return Err(MeshError::IndexOutOfRange {
+                    file: source.to_string(),
+                    triangle: i,
+                    vertices: n,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The three object-frame corners of triangle `i`.
+    #[inline]
+    pub fn corners(&self, i: usize) -> [[f64; 3]; 3] {
+        let t = self.triangles[i];
+        [
+            self.positions[t[0] as usize],
+            self.positions[t[1] as usize],
+            self.positions[t[2] as usize],
+        ]
+    }
+
+    /// Area of triangle `i`, m².
+    pub fn triangle_area(&self, i: usize) -> f64 {
+        let [a, b, c] = self.corners(i).map(Vec3::<f64>::from);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    /// Signed enclosed volume, m³ (divergence theorem: `Σ v0·(v1 × v2)/6`);
+    /// positive for a closed mesh wound outward.
+    pub fn signed_volume(&self) -> f64 {
+        (0..self.triangles.len())
+            .map(|i| {
+                let [a, b, c] = self.corners(i).map(Vec3::<f64>::from);
+                a.dot(b.cross(c)) / 6.0
+            })
+            .sum()
+    }
+
+    /// Total surface area, m².
+    pub fn area(&self) -> f64 {
+        (0..self.triangles.len())
+            .map(|i| self.triangle_area(i))
+            .sum()
+    }
+
+    /// Reverse the winding of every triangle (flips all normals).
+    pub fn flip(&mut self) {
+        for t in &mut self.triangles {
+            t.swap(1, 2);
+        }
+    }
+
+    /// If the mesh encloses a negative signed volume, flip it so normals point
+    /// outward. Returns true when it flipped.
+    pub fn orient_outward(&mut self) -> bool {
+        if self.signed_volume() < 0.0 {
+            self.flip();
+            true
+        } else {
+            false
+        }
+    }
+
+    /// True when every edge is used by exactly two triangles in opposite directions
+    /// (a closed, consistently oriented 2-manifold-with-possible-pinches).
+    pub fn is_closed(&self) -> bool {
+        use std::collections::HashMap;
+        let mut directed: HashMap<(u32, u32), u32> = HashMap::new();
+        for t in &self.triangles {
+            for k in 0..3 {
+                *directed.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+            }
+        }
+        directed
+            .iter()
+            .all(|(&(a, b), &n)| n == 1 && directed.get(&(b, a)) == Some(&1))
+    }
+
+    /// Axis-aligned bounds `(min, max)` of the vertices, metres.
+    pub fn bounds(&self) -> ([f64; 3], [f64; 3]) {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &self.positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Append another mesh (indices are offset).
+    pub fn append(&mut self, other: &TriangleMesh) {
+        let off = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|k| k + off)));
+    }
+
+    /// Invariant checker (in the spirit of parry's `assert_*` helpers), for tests:
+    /// panics with a description unless the mesh is valid ([`TriangleMesh::check`]),
+    /// has no degenerate triangle, is closed and consistently oriented
+    /// ([`TriangleMesh::is_closed`]) and encloses a positive volume (outward
+    /// winding).
+    pub fn assert_well_formed(&self) {
+        if let Err(e) = self.check("<assert_well_formed>") {
+            panic!("mesh invalid: {e}");
+        }
+        for i in 0..self.triangles.len() {
+            assert!(
+                self.triangle_area(i) > 0.0,
+                "mesh triangle {i} is degenerate (zero area)"
+            );
+        }
+        assert!(
+            self.is_closed(),
+            "mesh is not closed/consistently oriented (some edge not shared by exactly two opposite triangles)"
+        );
+        let v = self.signed_volume();
+        assert!(
+            v > 0.0,
+            "mesh encloses non-positive signed volume {v} (inward winding?)"
+        );
+    }
+}
+
+/// Möller–Trumbore (1997): for the ray `o + t d` and triangle `(v0, v1, v2)`,
+/// returns `(t, u, v)` with the hit at `(1 − u − v) v0 + u v1 + v v2`, or `None`
+/// when the ray is parallel to the triangle's plane or the triangle is degenerate
+/// (`det = 0` exactly: never divides by zero). No inside test is applied.
+#[inline]
+pub fn moller_trumbore<T: Real>(
+    o: Vec3<T>,
+    d: Vec3<T>,
+    v0: Vec3<T>,
+    v1: Vec3<T>,
+    v2: Vec3<T>,
+) -> Option<(T, T, T)> {
+    let e1 = v1 - v0;
+    let e2 = v2 - v0;
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.value() == 0.0 || !det.value().is_finite() {
+        return None;
+    }
+    let inv = det.recip();
+    let s = o - v0;
+    let u = s.dot(p) * inv;
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    let t = e2.dot(q) * inv;
+    Some((t, u, v))
+}
+
+/// An `f32` compressed-wide BVH (`obvhs::cwbvh`) over a mesh's world-space
+/// triangles, with an `f64` copy of the world vertices for exact primitive tests.
+///
+/// Built from the *value* of the transform: it carries no derivatives. Degenerate
+/// (zero-area) triangles are left out, so they are never hit.
+#[derive(Clone)]
+pub struct MeshBvh {
+    bvh: CwBvh,
+    /// BVH primitive → mesh triangle index.
+    prim_triangle: Vec<u32>,
+    /// Per BVH primitive: world-space `f64` corners.
+    prim_world: Vec<[[f64; 3]; 3]>,
+    /// Per BVH primitive: world-space `f32` triangle (bare traversal benchmark).
+    prim_f32: Vec<obvhs::triangle::Triangle>,
+    /// Diagonal of the world bounds, metres.
+    extent: f64,
+}
+
+impl core::fmt::Debug for MeshBvh {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("MeshBvh")
+            .field("primitives", &self.prim_triangle.len())
+            .field("nodes", &self.bvh.nodes.len())
+            .finish()
+    }
+}
+
+/// A closest hit found on values: distance (metres) and mesh triangle index.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshHit {
+    /// Ray parameter, metres (f64 primitive test).
+    pub t: f64,
+    /// Index of the triangle in the mesh.
+    pub triangle: u32,
+}
+
+impl MeshBvh {
+    /// Build over `mesh` placed by `world_from_object` (values). Errors when no
+    /// triangle has a non-zero world-space area.
+    pub fn build(
+        mesh: &TriangleMesh,
+        world_from_object: &Transform<f64>,
+    ) -> Result<Self, MeshError> {
+        mesh.check("<MeshBvh::build>")?;
+        let world: Vec<[f64; 3]> = mesh
+            .positions
+            .iter()
+            .map(|p| world_from_object.transform_point(Vec3::from(*p)).value())
+            .collect();
+        let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for p in &world {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let extent =
+            ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
+        // Pad every box by a margin far above f32 rounding of the coordinates.
+        let max_abs = lo
+            .iter()
+            .chain(hi.iter())
+            .fold(0.0_f64, |m, c| m.max(c.abs()));
+        let pad = (1e-6 * (extent + max_abs)).max(1e-30) as f32;
+
+        let mut prim_triangle = Vec::new();
+        let mut prim_world = Vec::new();
+        let mut prim_f32 = Vec::new();
+        let mut aabbs = Vec::new();
+        for (i, t) in mesh.triangles.iter().enumerate() {
+            let c = t.map(|k| world[k as usize]);
+            let [a, b, cc] = c.map(Vec3::<f64>::from);
+            let area2 = (b - a).cross(cc - a).length();
+            if area2.is_nan() || area2 <= 0.0 || !area2.is_finite() {
+                continue; // degenerate: never hit
+            }
+            let v = c.map(|p| Vec3A::new(p[0] as f32, p[1] as f32, p[2] as f32));
+            let mut bb = Aabb::from_points(&v);
+            bb.min -= Vec3A::splat(pad);
+            bb.max += Vec3A::splat(pad);
+            aabbs.push(bb);
+            prim_triangle.push(i as u32);
+            prim_world.push(c);
+            prim_f32.push(obvhs::triangle::Triangle {
+                v0: v[0],
+                v1: v[1],
+                v2: v[2],
+            });
+        }
+        if aabbs.is_empty() {
+            return Err(MeshError::NoTriangles {
+                file: "<MeshBvh::build: every triangle is degenerate>".to_string(),
+            });
+        }
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(
+            &aabbs,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        Ok(Self {
+            bvh,
+            prim_triangle,
+            prim_world,
+            prim_f32,
+            extent,
+        })
+    }
+
+    /// Number of (non-degenerate) triangles in the BVH.
+    pub fn len(&self) -> usize {
+        self.prim_triangle.len()
+    }
+
+    /// True when the BVH holds no triangle (never, for a built BVH).
+    pub fn is_empty(&self) -> bool {
+        self.prim_triangle.is_empty()
+    }
+
+    /// Diagonal of the world-space bounds, metres.
+    pub fn extent(&self) -> f64 {
+        self.extent
+    }
+
+    fn f32_ray(origin: [f64; 3], dir: [f64; 3], t_min: f64, t_max: f64) -> obvhs::ray::Ray {
+        let o = Vec3A::new(origin[0] as f32, origin[1] as f32, origin[2] as f32);
+        let d = Vec3A::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
+        let tmax = if t_max >= f32::MAX as f64 {
+            f32::INFINITY
+        } else {
+            (t_max as f32) * (1.0 + 8.0 * f32::EPSILON) + f32::MIN_POSITIVE
+        };
+        obvhs::ray::Ray::new(o, d, (t_min.min(0.0)) as f32, tmax)
+    }
+
+    #[inline]
+    fn prim_t(&self, prim: usize, o: Vec3<f64>, d: Vec3<f64>) -> Option<f64> {
+        let [a, b, c] = self.prim_world[prim].map(Vec3::<f64>::from);
+        let (t, u, v) = moller_trumbore(o, d, a, b, c)?;
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t.is_finite()).then_some(t)
+    }
+
+    /// The closest triangle hit with `t` in `[t_min, t_max]` (metres): BVH
+    /// traversal in `f32`, primitive tests in `f64`.
+    pub fn closest_hit(
+        &self,
+        origin: [f64; 3],
+        dir: [f64; 3],
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<MeshHit> {
+        if !(origin.iter().chain(dir.iter()).all(|c| c.is_finite())) {
+            return None;
+        }
+        let ray = Self::f32_ray(origin, dir, t_min, t_max);
+        let (o, d) = (Vec3::from(origin), Vec3::from(dir));
+        let mut best: Option<MeshHit> = None;
+        let mut rh = RayHit::none();
+        self.bvh.ray_traverse(ray, &mut rh, |_r, id| {
+            let prim = self.bvh.primitive_indices[id] as usize;
+            match self.prim_t(prim, o, d) {
+                Some(t) if t >= t_min && t <= t_max && best.is_none_or(|b| t < b.t) => {
+                    best = Some(MeshHit {
+                        t,
+                        triangle: self.prim_triangle[prim],
+                    });
+                    // Report slightly more than t so f32 culling never drops a
+                    // marginally nearer f64 hit.
+                    (t as f32) * (1.0 + 8.0 * f32::EPSILON) + f32::MIN_POSITIVE
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        best
+    }
+
+    /// Number of triangle crossings with `t > t_min` along a ray (f64 tests).
+    pub fn count_crossings(&self, origin: [f64; 3], dir: [f64; 3], t_min: f64) -> usize {
+        let ray = Self::f32_ray(origin, dir, t_min, f64::INFINITY);
+        let (o, d) = (Vec3::from(origin), Vec3::from(dir));
+        let mut n = 0;
+        self.bvh.ray_traverse_anyhit(ray, |_r, id| {
+            let prim = self.bvh.primitive_indices[id] as usize;
+            if let Some(t) = self.prim_t(prim, o, d) {
+                if t > t_min {
+                    n += 1;
+                }
+            }
+        });
+        n
+    }
+
+    /// **Bare `obvhs` traversal** for benchmarks: `f32` ray, `f32` Möller–Trumbore
+    /// of `obvhs::triangle::Triangle::intersect`, no `f64` refinement and no
+    /// derivative work. Returns `(t, mesh triangle index)` of the closest hit with
+    /// `t ≤ t_max`. Compare whole-tracer rays/s against this on the same rays.
+    pub fn traverse_f32(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<(f32, u32)> {
+        let ray = obvhs::ray::Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+        let mut rh = RayHit::none();
+        if self.bvh.ray_traverse(ray, &mut rh, |r, id| {
+            self.prim_f32[self.bvh.primitive_indices[id] as usize].intersect(r)
+        }) {
+            let prim = self.bvh.primitive_indices[rh.primitive_id as usize] as usize;
+            Some((rh.t, self.prim_triangle[prim]))
+        } else {
+            None
+        }
+    }
+
+    /// Invariant checker for tests: the `obvhs` structural validation (every node
+    /// and primitive reachable, child boxes inside parents, depth within the
+    /// traversal stack) plus this wrapper's tables being consistent. Panics on
+    /// failure.
+    pub fn assert_well_formed(&self) {
+        let aabbs: Vec<Aabb> = self.prim_f32.iter().map(|t| t.aabb()).collect();
+        let _ = self.bvh.validate(&aabbs, false);
+        let n = self.prim_triangle.len();
+        assert_eq!(self.prim_world.len(), n, "MeshBvh tables differ in length");
+        assert_eq!(self.prim_f32.len(), n, "MeshBvh tables differ in length");
+        assert_eq!(self.bvh.primitive_indices.len(), n, "BVH primitive count");
+        let mut seen = vec![false; n];
+        for &p in &self.bvh.primitive_indices {
+            assert!((p as usize) < n, "BVH primitive index {p} out of range");
+            assert!(!seen[p as usize], "BVH primitive {p} referenced twice");
+            seen[p as usize] = true;
+        }
+        for (i, c) in self.prim_world.iter().enumerate() {
+            assert!(
+                c.iter().flatten().all(|x| x.is_finite()),
+                "BVH primitive {i} has a non-finite vertex"
+            );
+        }
+    }
+}
+
+/// A triangle mesh placed in the world by a differentiable transform.
+///
+/// The BVH is built once from the transform's value and shared (`Arc`) between
+/// clones and between scalar types (see [`MeshInstance::with_transform`]).
+#[derive(Clone, Debug)]
+pub struct MeshInstance<T> {
+    /// The mesh in its object frame.
+    pub mesh: Arc<TriangleMesh>,
+    /// Object frame → world frame (differentiable).
+    pub world_from_object: Transform<T>,
+    /// BVH over the world-space triangles at the transform's value.
+    pub bvh: Arc<MeshBvh>,
+}
+
+impl<T: Real> MeshInstance<T> {
+    /// Place `mesh` with `world_from_object`; builds the BVH.
+    pub fn new(
+        mesh: Arc<TriangleMesh>,
+        world_from_object: Transform<T>,
+    ) -> Result<Self, MeshError> {
+        if !world_from_object.is_valid() {
+            return Err(MeshError::BadTransform);
+        }
+        let bvh = Arc::new(MeshBvh::build(&mesh, &world_from_object.to_f64())?);
+        Ok(Self {
+            mesh,
+            world_from_object,
+            bvh,
+        })
+    }
+
+    /// The same mesh and BVH with a transform in another scalar type. The new
+    /// transform must have the **same value** as the one the BVH was built from
+    /// (e.g. the dual version of the same scene); this is not checked beyond a
+    /// debug assertion.
+    pub fn with_transform<U: Real>(&self, world_from_object: Transform<U>) -> MeshInstance<U> {
+        debug_assert_eq!(world_from_object.to_f64(), self.world_from_object.to_f64());
+        MeshInstance {
+            mesh: self.mesh.clone(),
+            world_from_object,
+            bvh: self.bvh.clone(),
+        }
+    }
+
+    /// Values only (shares mesh and BVH).
+    pub fn to_f64(&self) -> MeshInstance<f64> {
+        self.with_transform(self.world_from_object.to_f64())
+    }
+
+    /// Closest hit on values (see [`MeshBvh::closest_hit`]).
+    pub fn find(&self, ray: &Ray<f64>, t_min: f64, t_max: f64) -> Option<MeshHit> {
+        self.bvh
+            .closest_hit(ray.origin.value(), ray.dir.value(), t_min, t_max)
+    }
+
+    /// World-space corners of a triangle in `T` (through the `T` transform).
+    #[inline]
+    pub fn world_corners(&self, triangle: u32) -> [Vec3<T>; 3] {
+        self.mesh
+            .corners(triangle as usize)
+            .map(|p| self.world_from_object.transform_point(Vec3::from_f64s(p)))
+    }
+
+    /// `t` (metres) and unit outward normal of the hit of `ray` with `triangle`,
+    /// recomputed in `T` by Möller–Trumbore on the transformed vertices. `None`
+    /// only if the triangle is degenerate or parallel to the ray in `T`'s values.
+    pub fn hit_quantities(&self, ray: &Ray<T>, triangle: u32) -> Option<(T, Vec3<T>)> {
+        let [a, b, c] = self.world_corners(triangle);
+        let (t, _, _) = moller_trumbore(ray.origin, ray.dir, a, b, c)?;
+        let mut n = (b - a).cross(c - a).normalize();
+        if self.world_from_object.flips_orientation() {
+            n = -n;
+        }
+        Some((t, n))
+    }
+
+    /// Point inside the closed mesh (values), by ray parity: the majority vote of
+    /// three fixed, irrational-ish directions (an edge or vertex hit along one
+    /// direction cannot flip the answer).
+    pub fn contains(&self, p: [f64; 3]) -> bool {
+        const DIRS: [[f64; 3]; 3] = [
+            [0.571_2, 0.312_9, 0.758_8],
+            [-0.423_1, 0.691_7, -0.585_3],
+            [0.271_3, -0.833_9, 0.480_1],
+        ];
+        let votes = DIRS
+            .iter()
+            .filter(|d| {
+                let d = Vec3::from(**d).normalize().value();
+                self.bvh.count_crossings(p, d, 0.0) % 2 == 1
+            })
+            .count();
+        votes >= 2
+    }
+}

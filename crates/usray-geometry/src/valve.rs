@@ -1,0 +1,1 @@
+//! Procedural heart-valve leaflets (filled below).
