@@ -1,0 +1,156 @@
+//! Command-line grammar of `usray` (CONTRACT §4).
+
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+
+/// usray: differentiable ultrasound simulation by Monte Carlo ray tracing.
+///
+/// Renders channel data and B-mode images from TOML scenes, beamforms measured or
+/// simulated channel data, imports Verasonics-style MATLAB files, and (with `grad`,
+/// `fit`, `diagnose`) differentiates the whole pipeline to recover scene parameters.
+/// Every command writes only into `--out DIR`, each file atomically.
+#[derive(Debug, Parser)]
+#[command(name = "usray", version, propagate_version = true)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Options every command takes.
+#[derive(Debug, Clone, Args)]
+pub struct Common {
+    /// Directory to write into (created if missing); nothing is written elsewhere.
+    #[arg(long, value_name = "DIR", default_value = "usray-out")]
+    pub out: PathBuf,
+    /// Worker threads; 0 uses every core. Results are bit-identical for any value.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub threads: usize,
+    /// Hide progress bars.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The subcommands of CONTRACT §4.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the main job on built-in defaults: render the cylinder scene, recover its
+    /// radius, impedance and roughness from a reference image, and write images, plots
+    /// and report.md.
+    Demo {
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Trace a scene: writes channels.npy/.json, bmode.npy, bmode.png and render.json
+    /// (rays traced, seconds, rays per second).
+    Render {
+        /// Scene file (TOML, CONTRACT §3).
+        scene: PathBuf,
+        /// Override the scene's `acquisition.seed`.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Override the scene's `acquisition.rays_per_element`.
+        #[arg(long, value_name = "N")]
+        rays: Option<usize>,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Form a B-mode (bmode.npy, bmode.png) from any channel data (CONTRACT §2), on
+    /// the imaging grid of the scene's [imaging] table.
+    Beamform {
+        /// Channel data: the .json sidecar (its .npy sits beside it).
+        channels: PathBuf,
+        /// Scene whose [imaging] table sets the grid, F-number, dynamic range and speed.
+        #[arg(long)]
+        scene: PathBuf,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Convert measured data (Verasonics-style MATLAB .mat) into channel data
+    /// (CONTRACT §2), with the time origin moved to CONTRACT §1's clock.
+    Import {
+        /// The file to convert.
+        file: PathBuf,
+        /// Stem of the written files (default: the input's stem).
+        #[arg(long)]
+        name: Option<String>,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// List every continuous scene parameter as `path = value`, one per line.
+    Params {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Gradient of the image loss against a reference with respect to named
+    /// parameters: writes grad.json, optionally with a finite-difference sweep.
+    Grad {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Reference: channel data (.json) or a B-mode (.npy, or .png with a sidecar .json).
+        #[arg(long)]
+        reference: PathBuf,
+        /// Comma-separated parameter paths, each optionally `PATH=MIN:MAX`.
+        #[arg(long, value_delimiter = ',', required = true)]
+        params: Vec<String>,
+        /// Also sweep finite-difference step sizes next to the AD gradient.
+        #[arg(long)]
+        fd_sweep: bool,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Fit named parameters to a reference image with Adam: writes fit.json,
+    /// fitted.toml, initial/final/reference images, overlay and plots.
+    Fit {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Reference: channel data (.json) or a B-mode (.npy, or .png with a sidecar .json).
+        #[arg(long)]
+        reference: PathBuf,
+        /// Comma-separated parameter paths, each optionally `PATH=MIN:MAX`.
+        #[arg(long, value_delimiter = ',', required = true)]
+        params: Vec<String>,
+        /// Optimiser iterations.
+        #[arg(long, default_value_t = 150)]
+        iters: usize,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Explain the gap between a scene and measured data: where it lies, which
+    /// unmodelled effect causes it, how far it shrinks (diagnosis.json, report.md).
+    Diagnose {
+        /// Scene file (TOML) of the base model.
+        scene: PathBuf,
+        /// Measured data: channel data (.json) or a B-mode.
+        #[arg(long)]
+        measured: PathBuf,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+}
+
+impl Command {
+    /// The options every command takes.
+    pub fn common(&self) -> &Common {
+        match self {
+            Command::Demo { common }
+            | Command::Render { common, .. }
+            | Command::Beamform { common, .. }
+            | Command::Import { common, .. }
+            | Command::Params { common, .. }
+            | Command::Grad { common, .. }
+            | Command::Fit { common, .. }
+            | Command::Diagnose { common, .. } => common,
+        }
+    }
+}
