@@ -156,6 +156,95 @@ impl TriangleMesh {
         (lo, hi)
     }
 
+    /// An icosphere: the regular icosahedron subdivided `subdivisions` times, every
+    /// vertex projected onto the sphere of radius `radius_m` centred at the
+    /// origin (an inscribed polyhedron, wound outward; `20·4^subdivisions`
+    /// triangles).
+    ///
+    /// ```
+    /// let m = usray_geometry::TriangleMesh::icosphere(1.0, 2);
+    /// assert_eq!(m.triangles.len(), 320);
+    /// m.assert_well_formed();
+    /// ```
+    pub fn icosphere(radius_m: f64, subdivisions: u32) -> Self {
+        use std::collections::HashMap;
+        let g = (1.0 + 5.0_f64.sqrt()) / 2.0;
+        let mut pos: Vec<[f64; 3]> = vec![
+            [-1.0, g, 0.0],
+            [1.0, g, 0.0],
+            [-1.0, -g, 0.0],
+            [1.0, -g, 0.0],
+            [0.0, -1.0, g],
+            [0.0, 1.0, g],
+            [0.0, -1.0, -g],
+            [0.0, 1.0, -g],
+            [g, 0.0, -1.0],
+            [g, 0.0, 1.0],
+            [-g, 0.0, -1.0],
+            [-g, 0.0, 1.0],
+        ];
+        let mut tris: Vec<[u32; 3]> = vec![
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        let unit = |p: [f64; 3]| {
+            let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            [p[0] / l, p[1] / l, p[2] / l]
+        };
+        for p in &mut pos {
+            *p = unit(*p);
+        }
+        for _ in 0..subdivisions {
+            let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
+            let mut next = Vec::with_capacity(tris.len() * 4);
+            let mut midpoint = |a: u32, b: u32, pos: &mut Vec<[f64; 3]>| {
+                let key = (a.min(b), a.max(b));
+                *mid.entry(key).or_insert_with(|| {
+                    let (pa, pb) = (pos[a as usize], pos[b as usize]);
+                    pos.push(unit([pa[0] + pb[0], pa[1] + pb[1], pa[2] + pb[2]]));
+                    (pos.len() - 1) as u32
+                })
+            };
+            for t in &tris {
+                let ab = midpoint(t[0], t[1], &mut pos);
+                let bc = midpoint(t[1], t[2], &mut pos);
+                let ca = midpoint(t[2], t[0], &mut pos);
+                next.push([t[0], ab, ca]);
+                next.push([t[1], bc, ab]);
+                next.push([t[2], ca, bc]);
+                next.push([ab, bc, ca]);
+            }
+            tris = next;
+        }
+        let mut m = Self {
+            positions: pos
+                .into_iter()
+                .map(|p| [p[0] * radius_m, p[1] * radius_m, p[2] * radius_m])
+                .collect(),
+            triangles: tris,
+        };
+        m.orient_outward();
+        m
+    }
+
     /// Append another mesh (indices are offset).
     pub fn append(&mut self, other: &TriangleMesh) {
         let off = self.positions.len() as u32;
