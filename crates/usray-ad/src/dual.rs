@@ -11,12 +11,16 @@
 //! (implemented here once): the operators below only state the partials of
 //! `+ − × ÷`, e.g. `∂(x·y)/∂x = y`.
 //!
-//! # Zero tangents stay zero
-//! Where a rule's partial is infinite (`√x` at 0, `acos` at ±1) but the incoming
+//! # `0·∞ = 0`
+//! Every product of a partial and a tangent treats an exact zero as absorbing:
+//! where a rule's partial is infinite (`√x` at 0, `acos` at ±1) but the incoming
 //! tangent is exactly zero (a constant, or a direction that does not move `x`), the
-//! outgoing tangent is `0`, not `∞·0 = NaN`. This matches reverse mode, which
-//! never propagates a zero adjoint, and means a constant `Dual` can pass through
-//! `sqrt(0)` safely.
+//! outgoing tangent is `0`, not `∞·0 = NaN`; likewise an infinite tangent through
+//! a zero partial (`0·√x` at `x = 0`) contributes `0`. A derivative is a sum over
+//! paths of products of partials, so with this convention a path containing an
+//! exact zero contributes nothing whatever the order of multiplication, and
+//! forward and reverse mode (which uses the same convention) agree. It also means
+//! a constant `Dual` passes through `sqrt(0)` safely.
 //!
 //! ```
 //! use usray_ad::{Dual, Real};
@@ -129,14 +133,27 @@ impl<const N: usize> From<f64> for Dual<N> {
     }
 }
 
-/// `d·e`, except that a zero tangent stays zero when `d` is infinite or NaN.
+/// `d·e` for a partial `d` and a tangent `e`, with `0·∞ = 0`: an exactly zero
+/// partial or tangent contributes nothing even when the other factor is
+/// infinite. The branches are on the scalar `d` only, so the common case is a
+/// plain (vectorisable) product.
 #[inline(always)]
-fn careful(d: f64, e: f64) -> f64 {
-    if e == 0.0 {
-        0.0
-    } else {
-        d * e
+fn scaled<const N: usize>(d: f64, e: &[f64; N]) -> [f64; N] {
+    let mut out = [0.0; N];
+    if d != 0.0 && d.is_finite() {
+        // Finite non-zero partial: the plain product is already right
+        // (0 stays 0, ∞ stays ∞).
+        for i in 0..N {
+            out[i] = d * e[i];
+        }
+    } else if d != 0.0 {
+        // Infinite (or NaN) partial: zero tangents stay zero.
+        for i in 0..N {
+            out[i] = if e[i] == 0.0 { 0.0 } else { d * e[i] };
+        }
     }
+    // d == 0: the edge carries nothing, whatever the tangent.
+    out
 }
 
 impl<const N: usize> Real for Dual<N> {
@@ -150,34 +167,22 @@ impl<const N: usize> Real for Dual<N> {
         self.re
     }
 
-    /// Forward chain rule: `ε_out = f'(x)·ε`.
+    /// Forward chain rule: `ε_out = f'(x)·ε` (with `0·∞ = 0`, see the module docs).
     #[inline(always)]
     fn chain(self, f: f64, df: f64) -> Self {
-        let mut eps = [0.0; N];
-        if df.is_finite() {
-            for i in 0..N {
-                eps[i] = df * self.eps[i];
-            }
-        } else {
-            for i in 0..N {
-                eps[i] = careful(df, self.eps[i]);
-            }
+        Self {
+            re: f,
+            eps: scaled(df, &self.eps),
         }
-        Self { re: f, eps }
     }
 
     /// Forward chain rule for `g(x, y)`: `ε_out = ∂g/∂x·ε_x + ∂g/∂y·ε_y`.
     #[inline(always)]
     fn chain2(self, other: Self, f: f64, dfdx: f64, dfdy: f64) -> Self {
-        let mut eps = [0.0; N];
-        if dfdx.is_finite() && dfdy.is_finite() {
-            for i in 0..N {
-                eps[i] = dfdx * self.eps[i] + dfdy * other.eps[i];
-            }
-        } else {
-            for i in 0..N {
-                eps[i] = careful(dfdx, self.eps[i]) + careful(dfdy, other.eps[i]);
-            }
+        let mut eps = scaled(dfdx, &self.eps);
+        let b = scaled(dfdy, &other.eps);
+        for i in 0..N {
+            eps[i] += b[i];
         }
         Self { re: f, eps }
     }
@@ -255,8 +260,11 @@ impl<const N: usize> Div for Dual<N> {
     /// ∂(x/y)/∂x = 1/y, ∂(x/y)/∂y = −x/y² = −(x/y)/y.
     #[inline(always)]
     fn div(self, rhs: Self) -> Self {
+        // The value is the true quotient (not `x·(1/y)`), so every number type
+        // computes bit-identical values and a replay takes the same branches as
+        // the `f64` render.
+        let q = self.re / rhs.re;
         let inv = 1.0 / rhs.re;
-        let q = self.re * inv;
         self.chain2(rhs, q, inv, -q * inv)
     }
 }

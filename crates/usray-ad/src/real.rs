@@ -106,11 +106,12 @@ pub trait Real:
         self.chain(self.value() * k, k)
     }
 
-    /// `1 / x`; d/dx = −1/x².
+    /// `1 / x`; d/dx = −1/x², computed as `−(1/x)²` so that `x²` cannot
+    /// underflow for tiny `|x|` (e.g. `x = 10⁻¹⁶⁰`, where `x²` would be subnormal).
     #[inline]
     fn recip(self) -> Self {
-        let x = self.value();
-        self.chain(1.0 / x, -1.0 / (x * x))
+        let r = 1.0 / self.value();
+        self.chain(r, -(r * r))
     }
 
     /// `√x`; d/dx = 1/(2√x) (infinite at 0: see [`Real::safe_sqrt`]).

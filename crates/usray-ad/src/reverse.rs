@@ -445,8 +445,9 @@ impl Recording {
 
 /// The reverse sweep: nodes `top, top−1, …, 1`, each pushing its adjoint to
 /// its parents. A zero adjoint is not propagated (so an infinite partial on a
-/// branch that does not reach the output gives 0, not `0·∞ = NaN`; the same
-/// convention as [`crate::Dual`]).
+/// branch that does not reach the output gives 0, not `0·∞ = NaN`), and zero
+/// partials were redirected to the dummy node when recorded: `0·∞ = 0`, the
+/// convention of [`crate::Dual`], so both modes agree at singular points.
 #[inline]
 fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
     let nodes = &nodes[..=top];
@@ -564,9 +565,11 @@ fn record(value: f64, a: Var, da: f64, b: Var, db: f64) -> Var {
             };
             stale(bad, rec);
         }
+        // A zero partial points at the dummy node: the edge carries nothing,
+        // even an infinite adjoint (`0·∞ = 0`, the convention of `Dual`).
         let index = t.push(Node {
-            a: a.index,
-            b: b.index,
+            a: if da == 0.0 { 0 } else { a.index },
+            b: if db == 0.0 { 0 } else { b.index },
             da,
             db,
         });
@@ -638,8 +641,11 @@ impl Div for Var {
     /// ∂(x/y)/∂x = 1/y, ∂(x/y)/∂y = −(x/y)/y.
     #[inline(always)]
     fn div(self, rhs: Self) -> Self {
+        // The value is the true quotient (not `x·(1/y)`), so every number type
+        // computes bit-identical values and a replay takes the same branches as
+        // the `f64` render.
+        let q = self.value / rhs.value;
         let inv = 1.0 / rhs.value;
-        let q = self.value * inv;
         self.chain2(rhs, q, inv, -q * inv)
     }
 }
