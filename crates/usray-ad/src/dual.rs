@@ -201,13 +201,9 @@ impl<const N: usize> Real for Dual<N> {
 
     #[inline(always)]
     fn scale(self, k: f64) -> Self {
-        let mut eps = self.eps;
-        for e in &mut eps {
-            *e *= k;
-        }
         Self {
             re: self.re * k,
-            eps,
+            eps: scaled(k, &self.eps),
         }
     }
 }

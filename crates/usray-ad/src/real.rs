@@ -206,12 +206,26 @@ pub trait Real:
     }
 
     /// `atan2(y = self, x)`; ∂/∂y = x/(x²+y²), ∂/∂x = −y/(x²+y²) (0 at the origin).
+    ///
+    /// The partials are evaluated after scaling by `s = max(|x|, |y|)`
+    /// (`∂/∂y = (x/s)/((x/s)² + (y/s)²)/s`), so `x² + y²` cannot underflow for tiny
+    /// arguments (`10⁻³⁰⁰`) or overflow for huge ones (`10²⁰⁰`).
+    ///
+    /// ```
+    /// use usray_ad::{Dual, Real};
+    /// let y = Dual::<2>::variable(1e-300, 0);
+    /// let x = Dual::<2>::variable(1e-300, 1);
+    /// let a = y.atan2(x);
+    /// assert!((a.eps[0] - 5e299).abs() < 1e285 && (a.eps[1] + 5e299).abs() < 1e285);
+    /// ```
     #[inline]
     fn atan2(self, x: Self) -> Self {
         let (yv, xv) = (self.value(), x.value());
-        let r2 = xv * xv + yv * yv;
-        let (dy, dx) = if r2 > 0.0 {
-            (xv / r2, -yv / r2)
+        let s = xv.abs().max(yv.abs());
+        let (dy, dx) = if s > 0.0 && s.is_finite() {
+            let (xs, ys) = (xv / s, yv / s);
+            let r2 = xs * xs + ys * ys;
+            (xs / r2 / s, -ys / r2 / s)
         } else {
             (0.0, 0.0)
         };
