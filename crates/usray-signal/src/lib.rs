@@ -1,3 +1,68 @@
-//! usray-signal: image formation with adjoints and channel-data I/O (work in progress: issue 4).
+//! # usray-signal
+//!
+//! Ultrasound image formation with adjoints. Every operator that turns channel data
+//! (CONTRACT §2) into a B-mode image has a forward and a vector-Jacobian product
+//! (VJP), so image-space losses can be pulled back to the channel data the ray
+//! tracer produced (paper §"Differentiating through beamforming and
+//! post-processing"):
+//!
+//! | module | operator |
+//! |---|---|
+//! | [`pulse`] | transmit pulse `s(t)` (paper eq. `axial_sig`), its derivative, convolution |
+//! | [`gain`] | depth-gain (time-gain) compensation |
+//! | [`filter`] | Butterworth low-/band-pass, zero-phase forward–backward |
+//! | [`demod`] | IQ demodulation at `f_c`, Hilbert analytic signal |
+//! | [`das`] | plane-wave delay-and-sum (paper eq. `das`), back-projection (eq. `das_adjoint`), calibration gradients (`c`, pitch) |
+//! | [`post`] | envelope, `20 log10`, normalisation, dynamic-range clip |
+//! | [`bmode`] | the composed operator `B` with one forward and one VJP call |
+//! | [`io`] | channel data and B-mode files, [`write_atomic`] |
+//! | [`mat`] | MATLAB v5 `.mat` reader and Verasonics plane-wave import |
+//!
+//! ```
+//! use usray_signal::{BMode, ChannelData, ChannelMeta, ImagingSettings};
+//! // One point scatterer at (0, 10 mm), 0° plane wave, 32 elements, 40 MHz sampling.
+//! let meta: ChannelMeta = serde_json::from_value(serde_json::json!({
+//!     "format": "usray-channels/1", "sampling_frequency_hz": 40e6, "t0_s": 0.0,
+//!     "sound_speed_m_s": 1540.0, "center_frequency_hz": 5e6,
+//!     "probe": {"kind": "linear", "n_elements": 32, "pitch_m": 0.3e-3, "element_width_m": 0.27e-3},
+//!     "transmits": [{"kind": "plane_wave", "angle_rad": 0.0}]
+//! })).unwrap();
+//! let ns = 800;
+//! let mut samples = vec![0.0; 32 * ns];
+//! for e in 0..32 {
+//!     let xe = (e as f64 - 15.5) * 0.3e-3;
+//!     let tof = (0.01 + (xe * xe + 0.01 * 0.01_f64).sqrt()) / 1540.0;
+//!     for k in 0..ns {
+//!         samples[e * ns + k] = usray_signal::pulse::pulse(k as f64 / 40e6 - tof, 5e6, 3.0);
+//!     }
+//! }
+//! let ch = ChannelData { meta, n_samples: ns, samples };
+//! let mut s = ImagingSettings::new([-2e-3, 2e-3], [8e-3, 12e-3], 0.1e-3);
+//! s.f_number = 0.0;
+//! let b = BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
+//! let mut ws = b.workspace();
+//! let img = b.forward(&ch, &mut ws);
+//! // The brightest pixel is the scatterer.
+//! let k = usray_signal::post::argmax(&img.data);
+//! assert!((img.x_m[k % img.nx]).abs() < 0.15e-3 && (img.z_m[k / img.nx] - 0.01).abs() < 0.15e-3);
+//! // Gradient of a loss (sum of the image) with respect to the channel data.
+//! let g = b.vjp(&mut ws, &vec![1.0; img.data.len()]);
+//! assert_eq!(g.len(), ch.samples.len());
+//! ```
+pub mod bmode;
 pub mod channels;
+pub mod das;
+pub mod demod;
+pub mod error;
+pub mod filter;
+pub mod gain;
+pub mod io;
+pub mod mat;
+pub mod post;
+pub mod pulse;
+
+pub use bmode::{BMode, Demod, Image, ImagingSettings, Workspace};
 pub use channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta};
+pub use error::{Result, SignalError};
+pub use io::{read_channels, write_atomic, write_channels};
+pub use mat::import_mat;

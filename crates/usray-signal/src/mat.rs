@@ -1,0 +1,438 @@
+//! A small MATLAB v5 `.mat` reader (numeric, char, struct and cell arrays; zlib
+//! `miCOMPRESSED` elements) and the import of Verasonics-style plane-wave data into
+//! CONTRACT §2 channel data.
+//!
+//! Format: MathWorks, "MAT-File Format" (R2023b), chapter 1 "Level 5 MAT-files":
+//! 128-byte header, then data elements `(type u32, nbytes u32, data, pad to 8)`,
+//! or the small form `(nbytes u16 << 16 | type u16, 4 data bytes)`. Every numeric
+//! class is converted to `f64` (integers exactly; `uint8` metadata such as
+//! `Nelements` cannot overflow afterwards). Opaque class objects (MATLAB `classdef`
+//! instances) and sparse arrays are recognised and skipped.
+
+use std::io::Read;
+use std::path::Path;
+
+use crate::channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta, CHANNELS_FORMAT};
+use crate::error::{Result, SignalError};
+
+/// A MATLAB value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MatValue {
+    /// A numeric or logical array, column-major, converted to `f64`.
+    Numeric {
+        /// MATLAB dimensions.
+        dims: Vec<usize>,
+        /// Real part, column-major.
+        re: Vec<f64>,
+        /// Imaginary part for complex arrays.
+        im: Option<Vec<f64>>,
+    },
+    /// A character array (as one string, column-major order).
+    Char(String),
+    /// A struct array: field names and, per element (column-major), one value per field.
+    Struct {
+        /// MATLAB dimensions.
+        dims: Vec<usize>,
+        /// Field names.
+        fields: Vec<String>,
+        /// `elems[i][f]`: field `f` of element `i`.
+        elems: Vec<Vec<MatValue>>,
+    },
+    /// A cell array, column-major.
+    Cell {
+        /// MATLAB dimensions.
+        dims: Vec<usize>,
+        /// The cells.
+        cells: Vec<MatValue>,
+    },
+    /// A class this reader does not decode (the MATLAB class number).
+    Unsupported(u8),
+}
+
+impl MatValue {
+    /// The field `name` of a 1×1 struct.
+    pub fn field(&self, name: &str) -> Option<&MatValue> {
+        match self {
+            MatValue::Struct { fields, elems, .. } if elems.len() == 1 => {
+                fields.iter().position(|f| f == name).map(|i| &elems[0][i])
+            }
+            _ => None,
+        }
+    }
+    /// The value of a numeric scalar.
+    pub fn scalar(&self) -> Option<f64> {
+        match self {
+            MatValue::Numeric { re, .. } if re.len() == 1 => Some(re[0]),
+            _ => None,
+        }
+    }
+}
+
+/// Named variables of a `.mat` file, in file order.
+pub type MatFile = Vec<(String, MatValue)>;
+
+struct Cur<'a> {
+    b: &'a [u8],
+    p: usize,
+}
+
+type R<T> = std::result::Result<T, String>;
+
+impl<'a> Cur<'a> {
+    fn u32(&mut self) -> R<u32> {
+        let s = self
+            .b
+            .get(self.p..self.p + 4)
+            .ok_or("unexpected end of data")?;
+        self.p += 4;
+        Ok(u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+    }
+    /// Read one element tag; returns (type, bytes, whole element consumed incl. padding).
+    fn element(&mut self) -> R<(u32, &'a [u8])> {
+        let first = self.u32()?;
+        if first >> 16 != 0 {
+            let (ty, n) = (first & 0xffff, (first >> 16) as usize);
+            if n > 4 {
+                return Err(format!("small data element claims {n} bytes"));
+            }
+            let s = self
+                .b
+                .get(self.p..self.p + 4)
+                .ok_or("truncated small element")?;
+            self.p += 4;
+            return Ok((ty, &s[..n]));
+        }
+        let n = self.u32()? as usize;
+        let end = self.p.checked_add(n).ok_or("element size overflow")?;
+        let s = self
+            .b
+            .get(self.p..end)
+            .ok_or_else(|| format!("element of {n} bytes runs past the end of the data"))?;
+        self.p = if first == 15 {
+            end
+        } else {
+            end.div_ceil(8) * 8
+        };
+        Ok((first, s))
+    }
+}
+
+fn numbers(ty: u32, s: &[u8]) -> R<Vec<f64>> {
+    macro_rules! conv {
+        ($t:ty, $w:expr) => {
+            s.chunks_exact($w)
+                .map(|c| <$t>::from_le_bytes(c.try_into().unwrap_or([0; $w])) as f64)
+                .collect()
+        };
+    }
+    Ok(match ty {
+        1 => s.iter().map(|&v| v as i8 as f64).collect(),
+        2 => s.iter().map(|&v| v as f64).collect(),
+        3 => conv!(i16, 2),
+        4 => conv!(u16, 2),
+        5 => conv!(i32, 4),
+        6 => conv!(u32, 4),
+        7 => conv!(f32, 4),
+        9 => conv!(f64, 8),
+        12 => conv!(i64, 8),
+        13 => conv!(u64, 8),
+        _ => return Err(format!("numeric data of MAT type {ty} not supported")),
+    })
+}
+
+fn parse_matrix(body: &[u8]) -> R<(String, MatValue)> {
+    if body.is_empty() {
+        return Ok((
+            String::new(),
+            MatValue::Numeric {
+                dims: vec![0, 0],
+                re: vec![],
+                im: None,
+            },
+        ));
+    }
+    let mut c = Cur { b: body, p: 0 };
+    let (_, flags) = c.element()?;
+    if flags.len() < 8 {
+        return Err("array flags too short".into());
+    }
+    let class = flags[0];
+    let complex = flags[1] & 0x08 != 0;
+    if class == 17 || class == 3 || class == 5 {
+        return Ok((String::new(), MatValue::Unsupported(class)));
+    }
+    let (dty, d) = c.element()?;
+    let dims: Vec<usize> = numbers(dty, d)?
+        .into_iter()
+        .map(|v| v.max(0.0) as usize)
+        .collect();
+    let (_, name) = c.element()?;
+    let name = String::from_utf8_lossy(name).into_owned();
+    let count: usize = dims.iter().product();
+    let value = match class {
+        1 => {
+            let mut cells = Vec::with_capacity(count);
+            for _ in 0..count {
+                let (ty, s) = c.element()?;
+                if ty != 14 {
+                    return Err(format!("cell element has type {ty}, expected miMATRIX"));
+                }
+                cells.push(parse_matrix(s)?.1);
+            }
+            MatValue::Cell { dims, cells }
+        }
+        2 => {
+            let (lt, l) = c.element()?;
+            let len = *numbers(lt, l)?.first().ok_or("missing field-name length")? as usize;
+            let (_, names) = c.element()?;
+            if len == 0 {
+                return Err("field-name length 0".into());
+            }
+            let fields: Vec<String> = names
+                .chunks(len)
+                .map(|ch| {
+                    String::from_utf8_lossy(ch.split(|&b| b == 0).next().unwrap_or(&[]))
+                        .into_owned()
+                })
+                .collect();
+            let mut elems = Vec::with_capacity(count);
+            for _ in 0..count {
+                let mut vals = Vec::with_capacity(fields.len());
+                for _ in 0..fields.len() {
+                    let (ty, s) = c.element()?;
+                    if ty != 14 {
+                        return Err(format!("struct field has type {ty}, expected miMATRIX"));
+                    }
+                    vals.push(parse_matrix(s)?.1);
+                }
+                elems.push(vals);
+            }
+            MatValue::Struct {
+                dims,
+                fields,
+                elems,
+            }
+        }
+        4 => {
+            let (ty, s) = c.element()?;
+            let chars: String = match ty {
+                16 | 1 | 2 => String::from_utf8_lossy(s).into_owned(),
+                _ => numbers(ty, s)?
+                    .into_iter()
+                    .filter_map(|v| char::from_u32(v as u32))
+                    .collect(),
+            };
+            MatValue::Char(chars)
+        }
+        6..=15 => {
+            let (ty, s) = c.element()?;
+            let re = numbers(ty, s)?;
+            let im = if complex {
+                let (ty, s) = c.element()?;
+                Some(numbers(ty, s)?)
+            } else {
+                None
+            };
+            if re.len() != count {
+                return Err(format!(
+                    "array `{name}` holds {} values, its dimensions {dims:?} need {count}",
+                    re.len()
+                ));
+            }
+            MatValue::Numeric { dims, re, im }
+        }
+        other => MatValue::Unsupported(other),
+    };
+    Ok((name, value))
+}
+
+/// Read every variable of a MATLAB v5 `.mat` file.
+pub fn read_mat(path: impl AsRef<Path>) -> Result<MatFile> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|e| SignalError::io(path, e))?;
+    parse_mat(&bytes).map_err(|w| SignalError::format(path, w))
+}
+
+/// Parse the bytes of a MATLAB v5 `.mat` file.
+pub fn parse_mat(bytes: &[u8]) -> std::result::Result<MatFile, String> {
+    if bytes.len() < 128 {
+        return Err("too short for a MAT v5 header (128 bytes)".into());
+    }
+    if bytes.starts_with(b"\x89HDF") || bytes[..128].windows(9).any(|w| w == b"MATLAB 7.3") {
+        return Err("MAT v7.3 (HDF5) is not supported; save with -v7 or -v6".into());
+    }
+    if &bytes[126..128] != b"IM" {
+        return Err("not a little-endian MAT v5 file (header endian indicator is not 'IM')".into());
+    }
+    let mut out = Vec::new();
+    let mut c = Cur {
+        b: &bytes[128..],
+        p: 0,
+    };
+    while c.p + 8 <= c.b.len() {
+        let (ty, s) = c.element()?;
+        let inflated;
+        let (ty, s) = if ty == 15 {
+            let mut d = Vec::new();
+            flate2::read::ZlibDecoder::new(s)
+                .read_to_end(&mut d)
+                .map_err(|e| format!("corrupt miCOMPRESSED element: {e}"))?;
+            inflated = d;
+            let mut ic = Cur { b: &inflated, p: 0 };
+            let (t, s) = ic.element()?;
+            (t, s)
+        } else {
+            (ty, s)
+        };
+        if ty == 14 {
+            let (name, v) = parse_matrix(s)?;
+            out.push((name, v));
+        }
+    }
+    Ok(out)
+}
+
+fn get<'a>(vars: &'a MatFile, name: &str) -> Option<&'a MatValue> {
+    vars.iter().find(|(n, _)| n == name).map(|(_, v)| v)
+}
+
+/// Convert a MATLAB `.mat` acquisition into CONTRACT §2 channel data.
+///
+/// Supported layout (Verasonics-style plane-wave, as PyMUST's `PWI_disk.mat`): a
+/// struct `param` with scalar fields `fs` (Hz), `fc` (Hz), `c` (m/s), `t0` (s, time
+/// of sample 0 after transmission), `pitch` (m), `width` (m), `Nelements`,
+/// `TXdelay` (s, one per element) and a numeric `RF` `(time, element[, frame])`.
+/// Each frame becomes a transmit. `TXdelay` must be all zero (unsteered 0° plane
+/// wave: the wave passes the array centre when every element fires, so
+/// `t0_s = param.t0`, CONTRACT §1); anything else is refused rather than guessed.
+/// `param.bandwidth` (%) is kept as `probe.bandwidth_percent`.
+///
+/// Errors name the file and the missing or unmappable variable.
+pub fn import_mat(path: impl AsRef<Path>) -> Result<ChannelData> {
+    let path = path.as_ref();
+    let vars = read_mat(path)?;
+    let err = |w: String| SignalError::format(path, w);
+    let param = get(&vars, "param").ok_or_else(|| {
+        let names: Vec<&str> = vars.iter().map(|(n, _)| n.as_str()).collect();
+        err(format!(
+            "no struct `param` (Verasonics plane-wave layout expected: `param` + `RF`); the file holds {names:?}"
+        ))
+    })?;
+    if !matches!(param, MatValue::Struct { .. }) {
+        return Err(err("`param` is not a 1×1 struct".into()));
+    }
+    let num = |f: &str| -> Result<f64> {
+        let v = param
+            .field(f)
+            .ok_or_else(|| err(format!("`param.{f}` is missing")))?
+            .scalar()
+            .ok_or_else(|| err(format!("`param.{f}` is not a numeric scalar")))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(err(format!("`param.{f}` = {v} is not finite")))
+        }
+    };
+    let (fs, fc, c, t0) = (num("fs")?, num("fc")?, num("c")?, num("t0")?);
+    let (pitch, width, ne) = (num("pitch")?, num("width")?, num("Nelements")?);
+    for (n, v) in [
+        ("fs", fs),
+        ("fc", fc),
+        ("c", c),
+        ("pitch", pitch),
+        ("Nelements", ne),
+    ] {
+        if v <= 0.0 {
+            return Err(err(format!("`param.{n}` = {v} must be positive")));
+        }
+    }
+    let ne = ne as usize;
+    match param.field("TXdelay") {
+        Some(MatValue::Numeric { re, .. }) => {
+            if re.len() != ne {
+                return Err(err(format!(
+                    "`param.TXdelay` has {} entries for {ne} elements",
+                    re.len()
+                )));
+            }
+            if re.iter().any(|&d| d != 0.0) {
+                return Err(err(
+                    "`param.TXdelay` is not all zero: steered or focused transmits cannot be mapped to CONTRACT §1 without knowing the delay convention; refusing to guess".into(),
+                ));
+            }
+        }
+        _ => return Err(err("`param.TXdelay` is missing or not numeric".into())),
+    }
+    let (dims, re) = match get(&vars, "RF") {
+        Some(MatValue::Numeric { dims, re, im: None }) => (dims, re),
+        Some(MatValue::Numeric { .. }) => {
+            return Err(err("`RF` is complex; real RF expected".into()))
+        }
+        Some(_) => return Err(err("`RF` is not a numeric array".into())),
+        None => {
+            return Err(err(
+                "variable `RF` (time × element × frame) is missing".into()
+            ))
+        }
+    };
+    let (ns, nel, nf) = match dims.as_slice() {
+        [a, b] => (*a, *b, 1),
+        [a, b, c] => (*a, *b, *c),
+        d => {
+            return Err(err(format!(
+                "`RF` has dimensions {d:?}; expected (time, element[, frame])"
+            )))
+        }
+    };
+    if nel != ne {
+        return Err(err(format!(
+            "`RF` has {nel} elements on its 2nd axis but `param.Nelements` = {ne}"
+        )));
+    }
+    if let Some(i) = re.iter().position(|v| !v.is_finite()) {
+        return Err(err(format!("`RF` sample {i} is not finite")));
+    }
+    // Column-major (time, element, frame) has exactly the memory order of C-order
+    // [frame, element, time].
+    let mut probe_extra = serde_json::Map::new();
+    if let Some(bw) = param.field("bandwidth").and_then(|v| v.scalar()) {
+        probe_extra.insert("bandwidth_percent".into(), bw.into());
+    }
+    let mut extra = serde_json::Map::new();
+    extra.insert(
+        "source".into(),
+        serde_json::json!({
+            "file": path.file_name().map(|f| f.to_string_lossy().into_owned()),
+            "layout": "Verasonics plane-wave (param struct + RF(time, element, frame))",
+            "clock": "TXdelay all zero: t0_s = param.t0",
+        }),
+    );
+    let transmits = (0..nf)
+        .map(|_| TransmitMeta {
+            kind: "plane_wave".into(),
+            angle_rad: 0.0,
+            t0_s: None,
+            extra: serde_json::Map::new(),
+        })
+        .collect();
+    Ok(ChannelData {
+        meta: ChannelMeta {
+            format: CHANNELS_FORMAT.into(),
+            sampling_frequency_hz: fs,
+            t0_s: t0,
+            sound_speed_m_s: c,
+            center_frequency_hz: fc,
+            probe: ProbeMeta {
+                kind: "linear".into(),
+                n_elements: ne,
+                pitch_m: pitch,
+                element_width_m: width,
+                extra: probe_extra,
+            },
+            transmits,
+            extra,
+        },
+        n_samples: ns,
+        samples: re.clone(),
+    })
+}
