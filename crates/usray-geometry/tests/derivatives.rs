@@ -234,3 +234,57 @@ fn values_match_f64_exactly() {
         .unwrap();
     assert_eq!(h.t.value(), t64);
 }
+
+#[test]
+fn reverse_mode_gradient_matches_forward_mode() {
+    use usray_ad::reverse::Recording;
+    let (c, r) = ([0.001, 0.0, 0.03], 0.012);
+    let th = 0.003;
+    let (o, d) = ([0.002, 0.001, 0.0], [0.05, 0.0, 1.0]);
+    // Forward: second hit (inner wall) of a tube, w.r.t. (cx, cz, r, thickness).
+    let fwd = {
+        let tube = HollowCylinder::new(
+            Vec3::new(
+                D4::variable(c[0], 0),
+                D4::constant(0.0),
+                D4::variable(c[2], 1),
+            ),
+            D4::variable(r, 2),
+            D4::variable(th, 3),
+        );
+        let mut g = Geometry::<D4>::new();
+        g.add(tube).unwrap();
+        let ray = Ray::<D4>::from_f64s(o, d);
+        let h1 = g.intersect(&ray, 1e-9, 1.0).unwrap();
+        let h2 = g
+            .intersect(&Ray::new(h1.point, ray.dir), 1e-9, 1.0)
+            .unwrap();
+        (h1.t + h2.t).eps
+    };
+    let mut grad = [0.0; 4];
+    {
+        let rec = Recording::start();
+        let [cx, cz, rr, tt] = rec.inputs_array::<4>(&[c[0], c[2], r, th]);
+        let tube = HollowCylinder::new(Vec3::new(cx, Real::zero(), cz), rr, tt);
+        let mut g = Geometry::new();
+        g.add(tube).unwrap();
+        let ray = Ray::from_f64s(o, d);
+        let h1 = g.intersect(&ray, 1e-9, 1.0).unwrap();
+        let h2 = g
+            .intersect(&Ray::new(h1.point, ray.dir), 1e-9, 1.0)
+            .unwrap();
+        rec.gradient(h1.t + h2.t, &mut grad);
+    }
+    for k in 0..4 {
+        assert!(
+            (grad[k] - fwd[k]).abs() < 1e-12,
+            "{k}: {} vs {}",
+            grad[k],
+            fwd[k]
+        );
+    }
+    assert!(
+        grad[3].abs() > 0.5,
+        "thickness must matter for the inner wall"
+    );
+}

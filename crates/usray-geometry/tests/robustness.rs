@@ -194,3 +194,25 @@ fn medium_stack_follows_innermost_containing_along_rays() {
     }
     assert!(!s.push(99));
 }
+
+#[test]
+fn rays_far_outside_f32_range_do_not_panic() {
+    let inst = MeshInstance::new(
+        Arc::new(TriangleMesh::icosphere(0.004, 1)),
+        Transform::<f64>::identity(),
+    )
+    .unwrap();
+    assert!(inst
+        .bvh
+        .closest_hit([1e300, 0.0, 0.0], [-1.0, 0.0, 0.0], 0.0, f64::INFINITY)
+        .is_none());
+    assert!(inst
+        .bvh
+        .traverse_f32([f32::NAN, 0.0, 0.0], [1.0, 0.0, 0.0], 1.0)
+        .is_none());
+    assert!(!inst.contains([1e300, 0.0, 0.0]));
+    assert!(inst
+        .bvh
+        .closest_hit([0.0; 3], [0.0, 0.0, 1.0], 0.0, f64::NAN)
+        .is_none());
+}

@@ -431,15 +431,20 @@ impl MeshBvh {
         self.extent
     }
 
-    fn f32_ray(origin: [f64; 3], dir: [f64; 3], t_min: f64, t_max: f64) -> obvhs::ray::Ray {
+    /// The `f32` traversal ray, or `None` when the ray is not finite in `f32`
+    /// (`obvhs` asserts finite rays in debug builds).
+    fn f32_ray(origin: [f64; 3], dir: [f64; 3], t_min: f64, t_max: f64) -> Option<obvhs::ray::Ray> {
         let o = Vec3A::new(origin[0] as f32, origin[1] as f32, origin[2] as f32);
         let d = Vec3A::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
+        if !(o.is_finite() && d.is_finite()) || t_max.is_nan() {
+            return None;
+        }
         let tmax = if t_max >= f32::MAX as f64 {
             f32::INFINITY
         } else {
             (t_max as f32) * (1.0 + 8.0 * f32::EPSILON) + f32::MIN_POSITIVE
         };
-        obvhs::ray::Ray::new(o, d, (t_min.min(0.0)) as f32, tmax)
+        Some(obvhs::ray::Ray::new(o, d, (t_min.min(0.0)) as f32, tmax))
     }
 
     #[inline]
@@ -458,10 +463,7 @@ impl MeshBvh {
         t_min: f64,
         t_max: f64,
     ) -> Option<MeshHit> {
-        if !(origin.iter().chain(dir.iter()).all(|c| c.is_finite())) {
-            return None;
-        }
-        let ray = Self::f32_ray(origin, dir, t_min, t_max);
+        let ray = Self::f32_ray(origin, dir, t_min, t_max)?;
         let (o, d) = (Vec3::from(origin), Vec3::from(dir));
         let mut best: Option<MeshHit> = None;
         let mut rh = RayHit::none();
@@ -485,7 +487,9 @@ impl MeshBvh {
 
     /// Number of triangle crossings with `t > t_min` along a ray (f64 tests).
     pub fn count_crossings(&self, origin: [f64; 3], dir: [f64; 3], t_min: f64) -> usize {
-        let ray = Self::f32_ray(origin, dir, t_min, f64::INFINITY);
+        let Some(ray) = Self::f32_ray(origin, dir, t_min, f64::INFINITY) else {
+            return 0;
+        };
         let (o, d) = (Vec3::from(origin), Vec3::from(dir));
         let mut n = 0;
         self.bvh.ray_traverse_anyhit(ray, |_r, id| {
@@ -504,6 +508,9 @@ impl MeshBvh {
     /// derivative work. Returns `(t, mesh triangle index)` of the closest hit with
     /// `t ≤ t_max`. Compare whole-tracer rays/s against this on the same rays.
     pub fn traverse_f32(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<(f32, u32)> {
+        if !(origin.iter().chain(dir.iter()).all(|c| c.is_finite())) || t_max.is_nan() {
+            return None;
+        }
         let ray = obvhs::ray::Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
         let mut rh = RayHit::none();
         if self.bvh.ray_traverse(ray, &mut rh, |r, id| {
