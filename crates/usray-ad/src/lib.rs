@@ -132,6 +132,61 @@
 //! assert_eq!(x.safe_sqrt().eps[0], 0.0);
 //! ```
 //!
+//! # Per-path gradients (how `usray-transport` should use reverse mode)
+//! Channel data are a sum of path deposits, so `∂L/∂θ = Σ_k ā_k ∂a_k/∂θ +
+//! τ̄_k ∂τ_k/∂θ` (`DESIGN.md`). Replay each path in [`reverse::Var`] and hand its
+//! deposits with their weights to [`reverse::Recording::vjp`], which *adds* into a
+//! per-worker gradient buffer; [`reverse::Recording::restart`] empties the tape for
+//! the next path without freeing memory (no allocation once warm).
+//! ```
+//! use usray_ad::reverse::{Recording, Var};
+//! use usray_ad::Real;
+//!
+//! /// A toy "path": amplitude and time of flight from (depth, sound speed).
+//! fn path<T: Real>(theta: &[T], k: usize) -> (T, T) {
+//!     let depth = theta[0].scale(1.0 + k as f64);
+//!     let amp = (-depth).exp();
+//!     let tof = (depth + depth) / theta[1];
+//!     (amp, tof)
+//! }
+//! let theta = [0.02, 1540.0];
+//! let mut grad = vec![0.0; 2]; // per worker, reduced in a fixed order
+//! let (mut ys, mut ws) = (Vec::new(), Vec::new()); // reused buffers
+//! let mut rec = Recording::start();
+//! for k in 0..4 {
+//!     rec.restart();
+//!     let p: [Var; 2] = rec.inputs_array(&theta);
+//!     let (a, tau) = path(&p, k);
+//!     let (a_bar, tau_bar) = (0.5, -2.0); // from the image-formation VJPs
+//!     ys.clear();
+//!     ws.clear();
+//!     ys.extend([a, tau]);
+//!     ws.extend([a_bar, tau_bar]);
+//!     rec.vjp(&ys, &ws, &mut grad);
+//! }
+//! drop(rec);
+//! // Check against forward mode.
+//! let mut fwd = [0.0; 2];
+//! for k in 0..4 {
+//!     let p = [usray_ad::Dual::<2>::variable(theta[0], 0), usray_ad::Dual::variable(theta[1], 1)];
+//!     let (a, tau) = path(&p, k);
+//!     for i in 0..2 {
+//!         fwd[i] += 0.5 * a.eps[i] - 2.0 * tau.eps[i];
+//!     }
+//! }
+//! assert!((grad[0] - fwd[0]).abs() < 1e-12 && (grad[1] - fwd[1]).abs() < 1e-15);
+//! ```
+//!
+//! # Conventions
+//! - Values are bit-identical in `f64`, [`Dual`] and [`reverse::Var`] (the same
+//!   floating-point operations in the same order), so a replay in an AD type takes
+//!   exactly the branches the `f64` render took.
+//! - Comparisons look at values only; branch decisions carry no derivative.
+//! - `0·∞ = 0` in every chain-rule product, in both modes (see [`Dual`]), so a
+//!   constant through `sqrt(0)` or a zero-weighted singular branch gives no `NaN`.
+//! - Non-`safe_` functions at their singular points return the true one-sided
+//!   derivative (`±∞`); the `safe_` variants return the subgradient 0.
+//!
 //! # Threads
 //! Reverse mode keeps one tape per thread; each rayon worker records, sweeps and
 //! clears its own, so many paths are differentiated in parallel with nothing

@@ -40,8 +40,21 @@
 //!   32-bit global counter; a stale `Var` kept across ~4·10⁹ recordings could in
 //!   principle alias, which is why this is documented as best effort.)
 //! - Constants never panic: they belong to no recording.
+//! - Do not call into rayon (`join`, `par_iter`) while a `Recording` is live:
+//!   a worker that steals another task while waiting may start a second
+//!   recording on the same thread, which panics as nesting. Per-path code is
+//!   serial, so record inside the parallel task, not around it.
 //!
 //! No `unsafe` is used anywhere.
+//!
+//! # Memory and cost
+//! A node is 24 bytes (two parent indices, two partials); a recording of `n`
+//! operations uses `24·n` bytes of tape plus `8·n` of adjoints, kept across
+//! recordings. Each thread's tape header (≈ 100 bytes) is leaked so that the
+//! thread-local needs no destructor (which keeps every operation's tape access
+//! inline); the buffers themselves are freed at thread exit. On the
+//! tracer-like benchmark kernel (88 nodes) a record + sweep costs ≈ 11× the
+//! plain `f64` evaluation, for any number of inputs (see `docs/performance.md`).
 
 use crate::Real;
 use core::cell::{Cell, RefCell};
@@ -550,6 +563,13 @@ impl Real for Var {
     #[inline(always)]
     fn value(self) -> f64 {
         self.value
+    }
+
+    /// True when the value is finite. A `Var` does not know its derivatives
+    /// before the sweep; check the gradient buffer afterwards.
+    #[inline]
+    fn is_finite(self) -> bool {
+        self.value.is_finite()
     }
 
     /// Records `y = f(x)` with partial `df`.
