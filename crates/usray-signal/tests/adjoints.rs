@@ -1,0 +1,221 @@
+//! Dot-product (adjoint) identities `⟨A x, y⟩ = ⟨x, Aᵀ y⟩` for every linear operator,
+//! with random sizes and data (proptest).
+//!
+//! Tolerances come from the standard floating-point bound for a sum of products
+//! (Higham, "Accuracy and Stability of Numerical Algorithms", §3.1): a computed sum
+//! of `m` terms `Σ a_i b_i` has error at most `γ_m Σ|a_i b_i|`, `γ_m ≈ m·ε`. Both
+//! sides of the identity evaluate the same bilinear form `Σ y_p W_pk x_k` in
+//! different orders, so `|lhs − rhs| ≤ 2 m ε Σ |y_p||W_pk||x_k|`, with `m` the longest
+//! accumulation chain. For DAS, `Σ|y||W||x|` is computed exactly as the RF
+//! delay-and-sum of `|x|` against `|y|` (the interpolation weights are ≥ 0). For the
+//! IIR filters, where the error of a recursion is amplified by the filter, the
+//! bound uses `‖x‖₂‖y‖₂·κ` with `κ = ‖h‖₁²` (ℓ1 norm of the one-pass impulse response
+//! squared: forward and backward pass) and `m = n·(sections)`.
+
+mod common;
+use common::*;
+use proptest::prelude::*;
+use usray_signal::das::{linspace, Das};
+use usray_signal::demod::{Analytic, IqDemod};
+use usray_signal::filter::Sos;
+use usray_signal::{gain, pulse, Complex64};
+
+fn das_case(seed: u64, ne: usize, nt: usize, nx: usize, nz: usize, fnum: f64, rotate: bool) -> Das {
+    let mut r = Rng(seed);
+    let angles: Vec<f64> = (0..nt).map(|_| 0.2 * r.next()).collect();
+    let t0s: Vec<f64> = (0..nt).map(|_| 0.3e-6 * r.next()).collect();
+    let m = meta(ne, 10e6, 3e6, &angles, &t0s);
+    let x = linspace(-1e-3, 1e-3, nx);
+    let z = linspace(1e-3, 3e-3, nz);
+    Das::new(&m, 60, x, z, 1540.0 * (1.0 + 0.05 * r.next()), fnum, rotate).unwrap()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
+
+    #[test]
+    fn das_iq_adjoint(seed in any::<u64>(), ne in 1usize..12, nt in 1usize..4, nx in 1usize..7, nz in 1usize..7,
+                      fnum in prop_oneof![Just(0.0), 0.5f64..2.0]) {
+        let das = das_case(seed, ne, nt, nx, nz, fnum, true);
+        let mut r = Rng(seed ^ 1);
+        let x = r.cvec(das.data_len());
+        let y = r.cvec(nx * nz);
+        let mut ax = vec![Complex64::new(0.0, 0.0); nx * nz];
+        das.forward(&x, &mut ax);
+        let mut aty = vec![Complex64::new(0.0, 0.0); das.data_len()];
+        let mut scratch = aty.clone();
+        das.vjp(&y, &mut aty, &mut scratch);
+        let (lhs, rhs) = (cdot(&ax, &y), cdot(&x, &aty));
+        // Σ|y||W||x| via the RF DAS of |x| against |y|.
+        let mut rf = das.clone();
+        rf.rotate = false;
+        let ax_abs: Vec<f64> = x.iter().map(|v| v.norm()).collect();
+        let mut s = vec![0.0; nx * nz];
+        rf.forward(&ax_abs, &mut s);
+        let bound: f64 = s.iter().zip(&y).map(|(a, b)| a * b.norm()).sum();
+        let m = (2 * ne * nt + 2 * nx * nz + das.data_len()) as f64;
+        prop_assert!((lhs - rhs).abs() <= 2.0 * m * EPS * bound + 1e-300, "lhs {lhs} rhs {rhs} bound {bound}");
+    }
+
+    #[test]
+    fn das_rf_adjoint(seed in any::<u64>(), ne in 1usize..12, nt in 1usize..4, nx in 1usize..7, nz in 1usize..7,
+                      fnum in prop_oneof![Just(0.0), 0.5f64..2.0]) {
+        let das = das_case(seed, ne, nt, nx, nz, fnum, false);
+        let mut r = Rng(seed ^ 2);
+        let x = r.vec(das.data_len());
+        let y = r.vec(nx * nz);
+        let mut ax = vec![0.0; nx * nz];
+        das.forward(&x, &mut ax);
+        let mut aty = vec![0.0; das.data_len()];
+        let mut scratch = aty.clone();
+        das.vjp(&y, &mut aty, &mut scratch);
+        let (lhs, rhs) = (dot(&ax, &y), dot(&x, &aty));
+        let xa: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+        let mut s = vec![0.0; nx * nz];
+        das.forward(&xa, &mut s);
+        let bound: f64 = s.iter().zip(&y).map(|(a, b)| a * b.abs()).sum();
+        let m = (2 * ne * nt + 2 * nx * nz + das.data_len()) as f64;
+        prop_assert!((lhs - rhs).abs() <= 2.0 * m * EPS * bound + 1e-300, "lhs {lhs} rhs {rhs}");
+    }
+
+    #[test]
+    fn filtfilt_adjoint(seed in any::<u64>(), n in 2usize..300, order in 1usize..7, cut in 0.02f64..0.45, band in any::<bool>()) {
+        let fs = 1.0;
+        let sos = if band {
+            Sos::butter_bandpass(order, cut * 0.5, cut, fs).unwrap()
+        } else {
+            Sos::butter_lowpass(order, cut, fs).unwrap()
+        };
+        let mut r = Rng(seed);
+        let (x, y) = (r.vec(n), r.vec(n));
+        let mut ax = x.clone();
+        sos.filtfilt_in_place(&mut ax);
+        let mut aty = y.clone();
+        sos.filtfilt_vjp_in_place(&mut aty);
+        let (lhs, rhs) = (dot(&ax, &y), dot(&x, &aty));
+        let mut h = vec![0.0; 2000];
+        h[0] = 1.0;
+        sos.filter_in_place(&mut h);
+        let kappa = h.iter().map(|v| v.abs()).sum::<f64>().powi(2);
+        let m = (n * sos.sections.len() * 4) as f64;
+        prop_assert!((lhs - rhs).abs() <= 2.0 * m * EPS * kappa * norm2(&x) * norm2(&y), "lhs {lhs} rhs {rhs}");
+    }
+
+    #[test]
+    fn iq_demod_adjoint(seed in any::<u64>(), n in 8usize..300, t0 in -1e-6f64..1e-5) {
+        let (fs, fc) = (6.0e6, 5e6); // band-pass undersampled, like PWI_disk
+        let d = IqDemod::new(fc, fs, 0.375e6, 5).unwrap();
+        let mut r = Rng(seed);
+        let x = r.vec(n);
+        let y = r.cvec(n);
+        let (mut re, mut im) = (vec![0.0; n], vec![0.0; n]);
+        let mut ax = vec![Complex64::new(0.0, 0.0); n];
+        d.forward(&x, t0, &mut re, &mut im, &mut ax);
+        let mut aty = vec![0.0; n];
+        d.vjp(&y, t0, &mut re, &mut im, &mut aty);
+        let (lhs, rhs) = (cdot(&ax, &y), dot(&x, &aty));
+        let mut h = vec![0.0; 4000];
+        h[0] = 1.0;
+        d.lowpass.filter_in_place(&mut h);
+        let kappa = h.iter().map(|v| v.abs()).sum::<f64>().powi(2);
+        let ny = y.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
+        let m = (n * d.lowpass.sections.len() * 4 + 8) as f64;
+        prop_assert!((lhs - rhs).abs() <= 4.0 * m * EPS * kappa * norm2(&x) * ny, "lhs {lhs} rhs {rhs}");
+    }
+
+    #[test]
+    fn analytic_adjoint(seed in any::<u64>(), n in 1usize..257) {
+        let a = Analytic::new(n);
+        let mut r = Rng(seed);
+        let x = r.vec(n);
+        let mut y = r.cvec(n);
+        let y0 = y.clone();
+        let mut sc = vec![Complex64::new(0.0, 0.0); a.scratch_len()];
+        let mut ax = vec![Complex64::new(0.0, 0.0); n];
+        a.forward(&x, &mut ax, &mut sc);
+        let mut aty = vec![0.0; n];
+        a.vjp(&mut y, &mut aty, &mut sc);
+        let (lhs, rhs) = (cdot(&ax, &y0), dot(&x, &aty));
+        // FFT round-off: O(ε log₂ n) relative in ℓ2 per transform (Higham §24.1);
+        // 4 transforms, ‖A‖₂ ≤ 2.
+        let ny = y0.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
+        let lg = (n as f64).log2().max(1.0);
+        prop_assert!((lhs - rhs).abs() <= 4.0 * 2.0 * 8.0 * lg * EPS * norm2(&x) * ny, "lhs {lhs} rhs {rhs}");
+    }
+
+    #[test]
+    fn convolution_adjoint(seed in any::<u64>(), n in 1usize..200, cycles in 1.0f64..5.0) {
+        let taps = pulse::pulse_taps(40e6, 5e6, cycles);
+        let mut r = Rng(seed);
+        let (x, y) = (r.vec(n), r.vec(n));
+        let mut ax = vec![0.0; n];
+        pulse::convolve(&x, &taps, &mut ax);
+        let mut aty = vec![0.0; n];
+        pulse::convolve_vjp(&y, &taps, &mut aty);
+        let (lhs, rhs) = (dot(&ax, &y), dot(&x, &aty));
+        let ta: Vec<f64> = taps.iter().map(|v| v.abs()).collect();
+        let xa: Vec<f64> = x.iter().map(|v| v.abs()).collect();
+        let mut s = vec![0.0; n];
+        pulse::convolve(&xa, &ta, &mut s);
+        let bound: f64 = s.iter().zip(&y).map(|(a, b)| a * b.abs()).sum();
+        let m = (taps.len() + n) as f64;
+        prop_assert!((lhs - rhs).abs() <= 2.0 * m * EPS * bound, "lhs {lhs} rhs {rhs}");
+    }
+
+    #[test]
+    fn gain_adjoint(seed in any::<u64>(), n in 1usize..300, db in 0.0f64..3.0) {
+        let g = gain::gain_table(n, 1e-6, 20e6, db, 1540.0);
+        let mut r = Rng(seed);
+        let (x, y) = (r.vec(n), r.vec(n));
+        let mut ax = vec![0.0; n];
+        gain::apply_gain(&x, &g, &mut ax);
+        let mut aty = vec![0.0; n];
+        gain::apply_gain_vjp(&y, &g, &mut aty);
+        let (lhs, rhs) = (dot(&ax, &y), dot(&x, &aty));
+        let bound: f64 = x.iter().zip(&y).zip(&g).map(|((a, b), c)| (a * b * c).abs()).sum();
+        prop_assert!((lhs - rhs).abs() <= 2.0 * (n as f64 + 2.0) * EPS * bound);
+    }
+}
+
+#[test]
+fn butterworth_matches_scipy() {
+    // scipy.signal.butter(5, 0.25) → b, a; our cascade's response must equal
+    // |H(e^{jω})| of that transfer function: check the defining properties instead
+    // (−3 dB at the cut-off, unit DC gain, maximally flat: |H|² = 1/(1 + (tan(ω/2)/tan(ωc/2))^(2N))).
+    let fs = 1.0;
+    let cut = 0.125; // Wn = 0.25
+    let s = Sos::butter_lowpass(5, cut, fs).unwrap();
+    for f in [0.0, 0.01, 0.05, 0.1, 0.125, 0.2, 0.3, 0.45] {
+        let ratio = (core::f64::consts::PI * f).tan() / (core::f64::consts::PI * cut).tan();
+        let want = 1.0 / (1.0 + ratio.powi(10)).sqrt();
+        assert!(
+            (s.magnitude(f, fs) - want).abs() < 1e-12,
+            "f {f}: {} vs {want}",
+            s.magnitude(f, fs)
+        );
+    }
+}
+
+#[test]
+fn das_is_independent_of_thread_count() {
+    let das = das_case(7, 16, 3, 9, 11, 0.0, true);
+    let mut r = Rng(3);
+    let x = r.cvec(das.data_len());
+    let y = r.cvec(99);
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut out = vec![Complex64::new(0.0, 0.0); 99];
+            das.forward(&x, &mut out);
+            let mut back = vec![Complex64::new(0.0, 0.0); das.data_len()];
+            let mut sc = back.clone();
+            das.vjp(&y, &mut back, &mut sc);
+            let g = das.calibration_vjp(&x, &y);
+            (out, back, g)
+        })
+    };
+    assert_eq!(run(1), run(3));
+}

@@ -1,0 +1,214 @@
+//! VJPs of the nonlinear operators and of the whole `B`, and the calibration
+//! gradients (sound speed, pitch), against central finite differences.
+//!
+//! Tolerance: a central difference with step `h` has truncation error
+//! `h²/6·|f'''|` and round-off `ε|f|/h`. Steps are chosen so both are ≲ 1e-7
+//! relative at the smooth interior points used (envelopes bounded away from 0, no
+//! pixel at a clip boundary, a unique arg-max that does not move within ±h), and
+//! the comparison uses relative tolerance 1e-5 — two orders above that estimate,
+//! far below the O(1) error of a wrong derivative.
+
+mod common;
+use common::*;
+use usray_signal::das::{linspace, Das};
+use usray_signal::{post, BMode, ChannelData, Complex64, Demod, ImagingSettings};
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / a.abs().max(b.abs()).max(1e-300)
+}
+
+#[test]
+fn post_chain_vjp_matches_fd() {
+    let mut r = Rng(11);
+    let n = 50;
+    let u: Vec<Complex64> = (0..n)
+        .map(|_| Complex64::new(1.0 + r.next(), r.next()) * (1.5 + r.next()))
+        .collect();
+    let d_range = 200.0; // wide: no pixel clips (all envelopes within 20 dB)
+    let w = r.vec(n);
+    let loss = |u: &[Complex64]| {
+        let mut env = vec![0.0; n];
+        post::envelope(u, &mut env);
+        let mut db = vec![0.0; n];
+        post::log_compress(&env, &mut db);
+        let mut img = vec![0.0; n];
+        post::clip_dynamic_range(&db, d_range, &mut img);
+        (dot(&img, &w), post::argmax(&env))
+    };
+    let mut env = vec![0.0; n];
+    post::envelope(&u, &mut env);
+    let mut db = vec![0.0; n];
+    let q = post::log_compress(&env, &mut db);
+    let mut db_bar = vec![0.0; n];
+    post::clip_dynamic_range_vjp(&db, d_range, &w, &mut db_bar);
+    let mut env_bar = vec![0.0; n];
+    post::log_compress_vjp(&env, q, &db_bar, &mut env_bar);
+    let mut u_bar = vec![Complex64::new(0.0, 0.0); n];
+    post::envelope_vjp(&u, &env_bar, &mut u_bar);
+    let v = r.cvec(n);
+    let h = 1e-6;
+    let up: Vec<Complex64> = u.iter().zip(&v).map(|(a, b)| a + b * h).collect();
+    let um: Vec<Complex64> = u.iter().zip(&v).map(|(a, b)| a - b * h).collect();
+    let ((lp, qp), (lm, qm)) = (loss(&up), loss(&um));
+    assert_eq!((qp, qm), (q, q), "arg-max moved: pick another point");
+    let fd = (lp - lm) / (2.0 * h);
+    let an = cdot(&u_bar, &v);
+    assert!(rel(fd, an) < 1e-5, "fd {fd} vjp {an}");
+    // The exact max gradient matters: dropping it (detached max) is measurably wrong.
+    let mut detached = env_bar.clone();
+    let total: f64 = db_bar.iter().sum();
+    detached[q] += 20.0 / core::f64::consts::LN_10 * total / env[q];
+    let mut ub2 = vec![Complex64::new(0.0, 0.0); n];
+    post::envelope_vjp(&u, &detached, &mut ub2);
+    assert!(rel(fd, cdot(&ub2, &v)) > 1e-3);
+}
+
+/// Channel data: three point echoes plus noise, small probe.
+fn synthetic(nt: usize, seed: u64) -> ChannelData {
+    let angles: Vec<f64> = (0..nt).map(|t| 0.08 * t as f64 - 0.08).collect();
+    let t0s = vec![-0.2e-6; nt];
+    let (fs, fc) = (20e6, 5e6);
+    let m = meta(16, fs, fc, &angles, &t0s);
+    let ns = 180;
+    let mut r = Rng(seed);
+    let mut samples = vec![0.0; nt * 16 * ns];
+    let pts = [(0.0, 3e-3), (-0.6e-3, 4e-3), (0.5e-3, 5e-3)];
+    for t in 0..nt {
+        let (s, c) = angles[t].sin_cos();
+        for e in 0..16 {
+            let xe = (e as f64 - 7.5) * 0.3e-3;
+            for k in 0..ns {
+                let tk = t0s[t] + k as f64 / fs;
+                let mut v = 0.05 * r.next();
+                for &(x, z) in &pts {
+                    let tof = (x * s + z * c + ((x - xe).powi(2) + z * z).sqrt()) / 1540.0;
+                    v += usray_signal::pulse::pulse(tk - tof, fc, 2.0);
+                }
+                samples[(t * 16 + e) * ns + k] = v;
+            }
+        }
+    }
+    ChannelData {
+        meta: m,
+        n_samples: ns,
+        samples,
+    }
+}
+
+fn check_b(demod: Demod, fnum: f64, gain: f64) {
+    let ch = synthetic(2, 5);
+    let mut s = ImagingSettings::new([-1e-3, 1e-3], [2.5e-3, 5.5e-3], 0.25e-3);
+    s.f_number = fnum;
+    s.demod = demod;
+    s.dynamic_range_db = 300.0;
+    s.depth_gain_db_per_cm = gain;
+    let b = BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
+    let mut ws = b.workspace();
+    let img = b.forward(&ch, &mut ws);
+    let q = post::argmax(ws.envelope());
+    // Weights on pixels with a healthy envelope only (log is smooth there).
+    let emax = ws.envelope()[q];
+    let mut r = Rng(9);
+    let w: Vec<f64> = ws
+        .envelope()
+        .iter()
+        .map(|&e| if e > 1e-3 * emax { r.next() } else { 0.0 })
+        .collect();
+    assert!(
+        img.data.iter().all(|&v| v > 0.0),
+        "a pixel clips at 0: widen D"
+    );
+    let g = b.vjp(&mut ws, &w);
+    let v = r.vec(ch.samples.len());
+    let scale = ch.samples.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    let h = 1e-5 * scale;
+    let eval = |sign: f64| {
+        let mut c = ch.clone();
+        for (a, b) in c.samples.iter_mut().zip(&v) {
+            *a += sign * h * b;
+        }
+        let mut ws2 = b.workspace();
+        let im = b.forward(&c, &mut ws2);
+        assert_eq!(post::argmax(ws2.envelope()), q, "arg-max moved");
+        dot(&im.data, &w)
+    };
+    let fd = (eval(1.0) - eval(-1.0)) / (2.0 * h);
+    let an = dot(&g, &v);
+    eprintln!(
+        "B ({demod:?}, F# {fnum}, gain {gain} dB/cm): fd {fd:.9e} vjp {an:.9e} rel {:.2e}",
+        rel(fd, an)
+    );
+    assert!(rel(fd, an) < 1e-5, "fd {fd} vjp {an}");
+}
+
+#[test]
+fn whole_b_vjp_matches_fd_iq() {
+    check_b(Demod::Iq, 0.0, 0.0);
+    check_b(Demod::Iq, 1.0, 0.7);
+}
+
+#[test]
+fn whole_b_vjp_matches_fd_hilbert() {
+    check_b(Demod::Hilbert, 0.0, 0.0);
+}
+
+#[test]
+fn calibration_gradients_match_fd() {
+    let ch = synthetic(2, 8);
+    let mut r = Rng(4);
+    for rotate in [true, false] {
+        // IQ-like complex data for rotate = true (demodulated), RF for false.
+        let x = linspace(-1e-3, 1e-3, 9);
+        let z = linspace(2.5e-3, 5.5e-3, 13);
+        let make = |c: f64, pitch: f64| {
+            let mut m = ch.meta.clone();
+            m.probe.pitch_m = pitch;
+            Das::new(&m, ch.n_samples, x.clone(), z.clone(), c, 0.0, rotate).unwrap()
+        };
+        let data: Vec<Complex64> = if rotate {
+            let d = usray_signal::demod::IqDemod::new(5e6, 20e6, 2e6, 5).unwrap();
+            let ns = ch.n_samples;
+            let mut out = vec![Complex64::new(0.0, 0.0); ch.samples.len()];
+            let (mut re, mut im) = (vec![0.0; ns], vec![0.0; ns]);
+            for (rec, o) in out.chunks_mut(ns).enumerate() {
+                d.forward(
+                    &ch.samples[rec * ns..(rec + 1) * ns],
+                    ch.meta.t0_for(rec / 16),
+                    &mut re,
+                    &mut im,
+                    o,
+                );
+            }
+            out
+        } else {
+            ch.samples.iter().map(|&v| Complex64::new(v, 0.0)).collect()
+        };
+        let ybar = r.cvec(x.len() * z.len());
+        let loss = |c: f64, p: f64| {
+            let d = make(c, p);
+            let mut out = vec![Complex64::new(0.0, 0.0); ybar.len()];
+            d.forward(&data, &mut out);
+            cdot(&out, &ybar)
+        };
+        let g = make(1540.0, 0.3e-3).calibration_vjp(&data, &ybar);
+        // Steps small against a sample period (dτ ≈ 1e-6 of a 50 ns sample) so that few
+        // interpolation kinks are crossed.
+        let (hc, hp) = (1e-5, 1e-11);
+        let fdc = (loss(1540.0 + hc, 0.3e-3) - loss(1540.0 - hc, 0.3e-3)) / (2.0 * hc);
+        let fdp = (loss(1540.0, 0.3e-3 + hp) - loss(1540.0, 0.3e-3 - hp)) / (2.0 * hp);
+        eprintln!(
+            "rotate {rotate}: dL/dc fd {fdc:.6e} an {:.6e}; dL/dpitch fd {fdp:.6e} an {:.6e}",
+            g.d_sound_speed, g.d_pitch
+        );
+        assert!(
+            rel(fdc, g.d_sound_speed) < 1e-4,
+            "c: fd {fdc} an {}",
+            g.d_sound_speed
+        );
+        assert!(
+            rel(fdp, g.d_pitch) < 1e-4,
+            "pitch: fd {fdp} an {}",
+            g.d_pitch
+        );
+    }
+}

@@ -1,0 +1,178 @@
+//! Reality check: the measured Verasonics acquisition `real/PWI_disk.mat` (a 2-cm
+//! rotating disk, 32 unsteered plane waves, band-pass undersampled at 4/3·f_c) is
+//! imported, demodulated to IQ at f_c = 5 MHz with absolute time, beamformed, and
+//! a circle fitted to the disk's edge must have radius 10 mm ± 0.3 mm.
+
+use usray_signal::das::{linspace, Das};
+use usray_signal::demod::IqDemod;
+use usray_signal::{import_mat, Complex64};
+
+/// Least-squares (Kåsa) circle through points: minimises Σ(x² + z² + Dx + Ez + F)².
+fn fit_circle(pts: &[(f64, f64)]) -> (f64, f64, f64) {
+    let mut m = [[0.0f64; 4]; 3];
+    for &(x, z) in pts {
+        let row = [x, z, 1.0];
+        let rhs = -(x * x + z * z);
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] += row[i] * row[j];
+            }
+            m[i][3] += row[i] * rhs;
+        }
+    }
+    // Gaussian elimination with partial pivoting.
+    for c in 0..3 {
+        let p = (c..3)
+            .max_by(|&a, &b| m[a][c].abs().total_cmp(&m[b][c].abs()))
+            .unwrap();
+        m.swap(c, p);
+        for r in 0..3 {
+            if r != c {
+                let f = m[r][c] / m[c][c];
+                for k in c..4 {
+                    m[r][k] -= f * m[c][k];
+                }
+            }
+        }
+    }
+    let (d, e, f) = (m[0][3] / m[0][0], m[1][3] / m[1][1], m[2][3] / m[2][2]);
+    let (xc, zc) = (-d / 2.0, -e / 2.0);
+    (xc, zc, (xc * xc + zc * zc - f).sqrt())
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+#[test]
+fn pwi_disk_radius() {
+    let Some(path) = usray_testdata::data_file("real/PWI_disk.mat") else {
+        return;
+    };
+    let ch = import_mat(&path).unwrap();
+    assert_eq!(
+        (ch.n_transmits(), ch.n_elements(), ch.n_samples),
+        (32, 128, 334)
+    );
+    assert_eq!(ch.meta.t0_s, 9.95e-6);
+    let (fs, fc) = (ch.meta.sampling_frequency_hz, ch.meta.center_frequency_hz);
+    assert_eq!(fc, 5e6);
+    let bw = ch.meta.probe.extra["bandwidth_percent"].as_f64().unwrap() / 100.0;
+    let ns = ch.n_samples;
+    let demod = IqDemod::new(fc, fs, bw * fc / 2.0, 5).unwrap();
+    let mut iq = vec![Complex64::new(0.0, 0.0); ch.samples.len()];
+    let (mut re, mut im) = (vec![0.0; ns], vec![0.0; ns]);
+    for (rec, out) in iq.chunks_mut(ns).enumerate() {
+        demod.forward(
+            &ch.samples[rec * ns..(rec + 1) * ns],
+            ch.meta.t0_s,
+            &mut re,
+            &mut im,
+            out,
+        );
+    }
+    // One frame at a time (the disk moves between frames): mean envelope, F# 1.
+    let (x, z) = (linspace(-15e-3, 15e-3, 151), linspace(5e-3, 40e-3, 176));
+    let (nx, nz) = (x.len(), z.len());
+    let mut meta1 = ch.meta.clone();
+    meta1.transmits.truncate(1);
+    let das = Das::new(
+        &meta1,
+        ns,
+        x.clone(),
+        z.clone(),
+        ch.meta.sound_speed_m_s,
+        1.0,
+        true,
+    )
+    .unwrap();
+    let mut mean = vec![0.0; nx * nz];
+    let mut out = vec![Complex64::new(0.0, 0.0); nx * nz];
+    let per = 128 * ns;
+    for f in 0..32 {
+        das.forward(&iq[f * per..(f + 1) * per], &mut out);
+        for (m, v) in mean.iter_mut().zip(&out) {
+            *m += v.norm() / 32.0;
+        }
+    }
+    // Smooth with a 5×5 box (1 mm).
+    let mut sm = vec![0.0; nx * nz];
+    for iz in 0..nz {
+        for ix in 0..nx {
+            let (mut s, mut n) = (0.0, 0.0);
+            for dz in -2i64..=2 {
+                for dx in -2i64..=2 {
+                    let (a, b) = (iz as i64 + dz, ix as i64 + dx);
+                    if a >= 0 && b >= 0 && (a as usize) < nz && (b as usize) < nx {
+                        s += mean[a as usize * nx + b as usize];
+                        n += 1.0;
+                    }
+                }
+            }
+            sm[iz * nx + ix] = s / n;
+        }
+    }
+    // Centre: centroid of the pixels above the mean level; then inside/outside levels.
+    let avg = sm.iter().sum::<f64>() / sm.len() as f64;
+    let (mut cx, mut cz, mut w) = (0.0, 0.0, 0.0);
+    for iz in 0..nz {
+        for ix in 0..nx {
+            if sm[iz * nx + ix] > avg {
+                cx += x[ix];
+                cz += z[iz];
+                w += 1.0;
+            }
+        }
+    }
+    let (mut xc, mut zc) = (cx / w, cz / w);
+    let mut radius = 0.0;
+    for _ in 0..3 {
+        let r_of = |ix: usize, iz: usize| ((x[ix] - xc).powi(2) + (z[iz] - zc).powi(2)).sqrt();
+        let (mut inside, mut outside) = (vec![], vec![]);
+        for iz in 0..nz {
+            for ix in 0..nx {
+                let r = r_of(ix, iz);
+                if r < 6e-3 {
+                    inside.push(sm[iz * nx + ix]);
+                } else if r > 13e-3 {
+                    outside.push(sm[iz * nx + ix]);
+                }
+            }
+        }
+        let (lin, lout) = (median(inside), median(outside));
+        let thr = 0.5 * (lin + lout);
+        // Boundary: above-threshold pixels with a below-threshold 4-neighbour, in 6–14 mm.
+        let above = |ix: usize, iz: usize| sm[iz * nx + ix] > thr;
+        let mut pts = vec![];
+        for iz in 1..nz - 1 {
+            for ix in 1..nx - 1 {
+                let r = r_of(ix, iz);
+                if above(ix, iz)
+                    && (r > 6e-3 && r < 14e-3)
+                    && (!above(ix - 1, iz)
+                        || !above(ix + 1, iz)
+                        || !above(ix, iz - 1)
+                        || !above(ix, iz + 1))
+                {
+                    pts.push((x[ix], z[iz]));
+                }
+            }
+        }
+        let (a, b, r) = fit_circle(&pts);
+        eprintln!(
+            "inside {lin:.1}, outside {lout:.1} ({:.1} dB contrast); {} boundary px; circle centre ({:.2}, {:.2}) mm, radius {:.3} mm",
+            20.0 * (lin / lout).log10(),
+            pts.len(),
+            a * 1e3,
+            b * 1e3,
+            r * 1e3
+        );
+        (xc, zc, radius) = (a, b, r);
+    }
+    assert!(
+        (radius - 10e-3).abs() <= 0.3e-3,
+        "fitted radius {} mm",
+        radius * 1e3
+    );
+}
