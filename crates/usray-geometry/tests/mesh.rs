@@ -480,3 +480,44 @@ fn shipped_valve_objs_match_the_generator() {
         );
     }
 }
+
+#[test]
+fn hits_close_to_the_origin_are_not_culled_by_the_bvh() {
+    // obvhs's CWBVH node test floors entry distances at 1e-4 (in coordinate
+    // units); in metres that would hide every face within 0.1 mm of the origin.
+    let quad = TriangleMesh::new(
+        vec![
+            [-1.0, -1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [-1.0, 1.0, 0.0],
+        ],
+        vec![[0, 2, 1], [0, 3, 2]],
+    )
+    .unwrap();
+    let w = Transform::from_euler(
+        Vec3::new(0.0, 0.0, 0.02),
+        Vec3::zero(),
+        Vec3::new(0.01, 0.01, 1.0),
+    );
+    let inst = MeshInstance::new(Arc::new(quad), w).unwrap();
+    for delta in [1e-8, 1e-6, 3e-5, 9e-5, 2e-4] {
+        let o = [0.001, 0.002, 0.02 - delta];
+        let h = inst.bvh.closest_hit(o, [0.0, 0.0, 1.0], 1e-9, 1.0);
+        let h = h.unwrap_or_else(|| panic!("missed the face {delta} m ahead"));
+        assert!((h.t - delta).abs() < 1e-15, "{} vs {delta}", h.t);
+        assert_eq!(inst.bvh.count_crossings(o, [0.0, 0.0, 1.0], 0.0), 1);
+        if delta >= 3e-5 {
+            let (t32, _) = inst
+                .bvh
+                .traverse_f32(o.map(|x| x as f32), [0.0, 0.0, 1.0], 1.0)
+                .unwrap_or_else(|| panic!("bare traversal missed the face {delta} m ahead"));
+            assert!((f64::from(t32) - delta).abs() < 1e-8, "{t32} vs {delta}");
+        }
+    }
+    // And from just behind the face nothing is hit.
+    assert!(inst
+        .bvh
+        .closest_hit([0.001, 0.002, 0.02 + 1e-8], [0.0, 0.0, 1.0], 1e-9, 1.0)
+        .is_none());
+}

@@ -313,6 +313,17 @@ pub fn moller_trumbore<T: Real>(
 ///
 /// Built from the *value* of the transform: it carries no derivatives. Degenerate
 /// (zero-area) triangles are left out, so they are never hit.
+///
+/// # The BVH frame
+/// `obvhs`'s CWBVH node test clamps the entry distance to at least `1e-4`
+/// (`cwbvh::node::EPSILON`, in whatever units the coordinates are), which in
+/// metres would cull every node within 0.1 mm of the ray origin — thin valve
+/// leaflets and creases would leak. The BVH is therefore built in a normalised
+/// frame, `q = (p_world − center)·scale` with the mesh's bounding-box diagonal
+/// mapped to [`BVH_FRAME_EXTENT`] units, and every traversal ray starts
+/// [`BVH_ORIGIN_SHIFT`] units *behind* its true origin; candidate triangles are
+/// then tested in `f64` world coordinates from the true origin, so nothing in
+/// front of the origin is ever culled.
 #[derive(Clone)]
 pub struct MeshBvh {
     bvh: CwBvh,
@@ -320,11 +331,22 @@ pub struct MeshBvh {
     prim_triangle: Vec<u32>,
     /// Per BVH primitive: world-space `f64` corners.
     prim_world: Vec<[[f64; 3]; 3]>,
-    /// Per BVH primitive: world-space `f32` triangle (bare traversal benchmark).
+    /// Per BVH primitive: BVH-frame `f32` triangle (bare traversal benchmark).
     prim_f32: Vec<obvhs::triangle::Triangle>,
     /// Diagonal of the world bounds, metres.
     extent: f64,
+    /// World point mapped to the BVH-frame origin, metres.
+    center: [f64; 3],
+    /// BVH-frame units per metre.
+    scale: f64,
 }
+
+/// Bounding-box diagonal of a mesh in BVH-frame units (see [`MeshBvh`]).
+pub const BVH_FRAME_EXTENT: f64 = 1000.0;
+
+/// How far behind its origin a traversal ray starts, in BVH-frame units (100× the
+/// `obvhs` node-entry floor of `1e-4`; 1e-5 of the mesh size).
+pub const BVH_ORIGIN_SHIFT: f64 = 1e-2;
 
 impl core::fmt::Debug for MeshBvh {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
@@ -366,12 +388,19 @@ impl MeshBvh {
         }
         let extent =
             ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
-        // Pad every box by a margin far above f32 rounding of the coordinates.
-        let max_abs = lo
-            .iter()
-            .chain(hi.iter())
-            .fold(0.0_f64, |m, c| m.max(c.abs()));
-        let pad = (1e-6 * (extent + max_abs)).max(1e-30) as f32;
+        let center = [
+            0.5 * (lo[0] + hi[0]),
+            0.5 * (lo[1] + hi[1]),
+            0.5 * (lo[2] + hi[2]),
+        ];
+        let scale = if extent > 0.0 && extent.is_finite() {
+            BVH_FRAME_EXTENT / extent
+        } else {
+            1.0
+        };
+        // BVH-frame coordinates are at most ~BVH_FRAME_EXTENT/2: f32 rounding is
+        // ~3e-5 units; pad every box by 1e-3 units (1e-6 of the mesh size).
+        let pad = (1e-6 * BVH_FRAME_EXTENT) as f32;
 
         let mut prim_triangle = Vec::new();
         let mut prim_world = Vec::new();
@@ -384,7 +413,13 @@ impl MeshBvh {
             if area2.is_nan() || area2 <= 0.0 || !area2.is_finite() {
                 continue; // degenerate: never hit
             }
-            let v = c.map(|p| Vec3A::new(p[0] as f32, p[1] as f32, p[2] as f32));
+            let v = c.map(|p| {
+                Vec3A::new(
+                    ((p[0] - center[0]) * scale) as f32,
+                    ((p[1] - center[1]) * scale) as f32,
+                    ((p[2] - center[2]) * scale) as f32,
+                )
+            });
             let mut bb = Aabb::from_points(&v);
             bb.min -= Vec3A::splat(pad);
             bb.max += Vec3A::splat(pad);
@@ -413,6 +448,8 @@ impl MeshBvh {
             prim_world,
             prim_f32,
             extent,
+            center,
+            scale,
         })
     }
 
@@ -431,20 +468,31 @@ impl MeshBvh {
         self.extent
     }
 
-    /// The `f32` traversal ray, or `None` when the ray is not finite in `f32`
-    /// (`obvhs` asserts finite rays in debug builds).
-    fn f32_ray(origin: [f64; 3], dir: [f64; 3], t_min: f64, t_max: f64) -> Option<obvhs::ray::Ray> {
-        let o = Vec3A::new(origin[0] as f32, origin[1] as f32, origin[2] as f32);
+    /// The traversal ray in the BVH frame, started [`BVH_ORIGIN_SHIFT`] behind
+    /// the true origin, or `None` when it is not finite in `f32` (`obvhs` asserts
+    /// finite rays in debug builds). A world distance `t` along the ray is
+    /// `t·scale + BVH_ORIGIN_SHIFT` along the traversal ray (`dir` unit).
+    fn f32_ray(&self, origin: [f64; 3], dir: [f64; 3], t_max: f64) -> Option<obvhs::ray::Ray> {
+        let q = |k: usize| (origin[k] - self.center[k]) * self.scale - dir[k] * BVH_ORIGIN_SHIFT;
+        let o = Vec3A::new(q(0) as f32, q(1) as f32, q(2) as f32);
         let d = Vec3A::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
         if !(o.is_finite() && d.is_finite()) || t_max.is_nan() {
             return None;
         }
-        let tmax = if t_max >= f32::MAX as f64 {
+        let tmax = self.to_traversal_t(t_max);
+        Some(obvhs::ray::Ray::new(o, d, 0.0, tmax))
+    }
+
+    /// World distance → traversal-ray distance, rounded up a little so `f32`
+    /// culling never drops a marginally nearer `f64` hit.
+    #[inline]
+    fn to_traversal_t(&self, t: f64) -> f32 {
+        let ts = t * self.scale + BVH_ORIGIN_SHIFT;
+        if ts >= f32::MAX as f64 {
             f32::INFINITY
         } else {
-            (t_max as f32) * (1.0 + 8.0 * f32::EPSILON) + f32::MIN_POSITIVE
-        };
-        Some(obvhs::ray::Ray::new(o, d, (t_min.min(0.0)) as f32, tmax))
+            (ts as f32) * (1.0 + 8.0 * f32::EPSILON) + 1e-6
+        }
     }
 
     #[inline]
@@ -463,7 +511,7 @@ impl MeshBvh {
         t_min: f64,
         t_max: f64,
     ) -> Option<MeshHit> {
-        let ray = Self::f32_ray(origin, dir, t_min, t_max)?;
+        let ray = self.f32_ray(origin, dir, t_max)?;
         let (o, d) = (Vec3::from(origin), Vec3::from(dir));
         let mut best: Option<MeshHit> = None;
         let mut rh = RayHit::none();
@@ -475,9 +523,7 @@ impl MeshBvh {
                         t,
                         triangle: self.prim_triangle[prim],
                     });
-                    // Report slightly more than t so f32 culling never drops a
-                    // marginally nearer f64 hit.
-                    (t as f32) * (1.0 + 8.0 * f32::EPSILON) + f32::MIN_POSITIVE
+                    self.to_traversal_t(t)
                 }
                 _ => f32::INFINITY,
             }
@@ -487,7 +533,7 @@ impl MeshBvh {
 
     /// Number of triangle crossings with `t > t_min` along a ray (f64 tests).
     pub fn count_crossings(&self, origin: [f64; 3], dir: [f64; 3], t_min: f64) -> usize {
-        let Some(ray) = Self::f32_ray(origin, dir, t_min, f64::INFINITY) else {
+        let Some(ray) = self.f32_ray(origin, dir, f64::INFINITY) else {
             return 0;
         };
         let (o, d) = (Vec3::from(origin), Vec3::from(dir));
@@ -503,21 +549,30 @@ impl MeshBvh {
         n
     }
 
-    /// **Bare `obvhs` traversal** for benchmarks: `f32` ray, `f32` Möller–Trumbore
-    /// of `obvhs::triangle::Triangle::intersect`, no `f64` refinement and no
+    /// **Bare `obvhs` traversal** for benchmarks: `f32` ray (world frame, metres,
+    /// unit `dir`), mapped to the BVH frame in `f32`, `f32` Möller–Trumbore of
+    /// `obvhs::triangle::Triangle::intersect`, no `f64` refinement and no
     /// derivative work. Returns `(t, mesh triangle index)` of the closest hit with
-    /// `t ≤ t_max`. Compare whole-tracer rays/s against this on the same rays.
+    /// `0 ≤ t ≤ t_max` (metres, `f32` accuracy). Compare whole-tracer rays/s
+    /// against this on the same rays.
     pub fn traverse_f32(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<(f32, u32)> {
         if !(origin.iter().chain(dir.iter()).all(|c| c.is_finite())) || t_max.is_nan() {
             return None;
         }
-        let ray = obvhs::ray::Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+        let (scale, shift) = (self.scale as f32, BVH_ORIGIN_SHIFT as f32);
+        let c = self.center.map(|x| x as f32);
+        let o = Vec3A::new(
+            (origin[0] - c[0]) * scale - dir[0] * shift,
+            (origin[1] - c[1]) * scale - dir[1] * shift,
+            (origin[2] - c[2]) * scale - dir[2] * shift,
+        );
+        let ray = obvhs::ray::Ray::new(o, Vec3A::from(dir), shift, t_max * scale + shift);
         let mut rh = RayHit::none();
         if self.bvh.ray_traverse(ray, &mut rh, |r, id| {
             self.prim_f32[self.bvh.primitive_indices[id] as usize].intersect(r)
         }) {
             let prim = self.bvh.primitive_indices[rh.primitive_id as usize] as usize;
-            Some((rh.t, self.prim_triangle[prim]))
+            Some(((rh.t - shift) / scale, self.prim_triangle[prim]))
         } else {
             None
         }
