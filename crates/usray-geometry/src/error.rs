@@ -59,6 +59,15 @@ pub enum MeshError {
         /// Number of vertices.
         vertices: usize,
     },
+    /// Differentiable vertices given to `MeshInstance::with_vertices` do not match
+    /// the mesh the BVH was built from.
+    #[error("differentiable vertices do not match the mesh: expected {expected} vertices with the mesh's values, got {got}")]
+    VerticesMismatch {
+        /// Vertex count of the mesh.
+        expected: usize,
+        /// Vertex count given.
+        got: usize,
+    },
     /// The object transform is non-finite or has a zero scale factor.
     #[error("mesh transform is not finite or has a zero scale factor")]
     BadTransform,

@@ -81,7 +81,9 @@
 //! Meshes: [`obj::load_obj`] (via `tobj`, triangles only, errors name the file),
 //! [`TriangleMesh::write_obj`], [`TriangleMesh::icosphere`], the procedural
 //! heart valve [`valve::valve_leaflets`] (shipped as
-//! `scenes/meshes/valve_{open,half,closed}.obj`), invariant checkers
+//! `scenes/meshes/valve_{open,half,closed}.obj`; its vertices as differentiable
+//! functions of the closure state, [`valve::valve_leaflet_positions`], attach to
+//! a mesh with [`MeshInstance::with_vertices`] for `∂t/∂openness`), invariant checkers
 //! [`TriangleMesh::assert_well_formed`] and [`MeshBvh::assert_well_formed`].
 //! For throughput comparisons, [`MeshBvh::traverse_f32`] is the bare `obvhs`
 //! traversal; `cargo run --release -p usray-geometry --example bench_traversal`

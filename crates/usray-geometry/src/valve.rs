@@ -22,7 +22,8 @@
 //! the mid-surface offset by `±thickness_m/2` along its normal, joined by side
 //! walls, wound outward, so it has an inside (leaflet tissue) and an outside.
 
-use crate::TriangleMesh;
+use crate::{TriangleMesh, Vec3};
+use usray_ad::Real;
 
 /// Shape parameters of [`valve_leaflets`]. Lengths in metres, angles in degrees.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -95,46 +96,92 @@ pub fn valve_leaflets(openness: f64, p: &ValveParams) -> TriangleMesh {
 /// The leaflets of [`valve_leaflets`] as separate meshes (one closed shell each),
 /// e.g. to make each leaflet its own object.
 pub fn valve_leaflet_meshes(openness: f64, p: &ValveParams) -> Vec<TriangleMesh> {
-    let closure = if openness.is_nan() {
-        0.0
-    } else {
-        openness.clamp(0.0, 1.0)
-    };
     let n = p.n_leaflets.max(1);
     (0..n)
         .map(|k| {
-            let theta_mid = 2.0 * core::f64::consts::PI * k as f64 / n as f64;
-            leaflet(theta_mid, closure, p)
+            let positions = leaflet_positions(theta_mid(k, n), closure_of(openness), p);
+            let mut m = TriangleMesh {
+                positions: positions.iter().map(|v| v.value()).collect(),
+                triangles: leaflet_triangles(p),
+            };
+            m.orient_outward();
+            m
         })
         .collect()
 }
 
+/// The vertex positions of [`valve_leaflets`] as differentiable functions of the
+/// closure state, in the same order as `valve_leaflets(openness.value(), p)
+/// .positions` (object frame, metres). Pair them with that mesh in
+/// [`crate::MeshInstance::with_vertices`] so hit distances carry
+/// `∂t/∂openness`. Inside `[0, 1]` the derivative flows (one-sided at the ends);
+/// outside, the clamped value is a constant.
+///
+/// ```
+/// use usray_ad::{Dual, Real};
+/// use usray_geometry::valve::{valve_leaflet_positions, valve_leaflets, ValveParams};
+/// let p = ValveParams::default();
+/// let pos = valve_leaflet_positions(Dual::<1>::variable(0.5, 0), &p);
+/// let mesh = valve_leaflets(0.5, &p);
+/// assert_eq!(pos.len(), mesh.positions.len());
+/// assert_eq!(pos[7].value(), mesh.positions[7]);
+/// assert!(pos[7].z.eps[0] != 0.0); // vertices move as the valve closes
+/// ```
+pub fn valve_leaflet_positions<T: Real>(openness: T, p: &ValveParams) -> Vec<Vec3<T>> {
+    let n = p.n_leaflets.max(1);
+    let v = openness.value();
+    let closure = if v.is_nan() || v < 0.0 {
+        T::zero()
+    } else if v > 1.0 {
+        T::one()
+    } else {
+        openness
+    };
+    (0..n)
+        .flat_map(|k| leaflet_positions(theta_mid(k, n), closure, p))
+        .collect()
+}
+
+fn closure_of(openness: f64) -> f64 {
+    if openness.is_nan() {
+        0.0
+    } else {
+        openness.clamp(0.0, 1.0)
+    }
+}
+
+fn theta_mid(k: usize, n: usize) -> f64 {
+    2.0 * core::f64::consts::PI * k as f64 / n as f64
+}
+
 /// Mid-surface point of one leaflet at `(u ∈ [−1,1], v ∈ [0,1])`.
-fn mid_surface(theta_mid: f64, closure: f64, p: &ValveParams, u: f64, v: f64) -> [f64; 3] {
+fn mid_surface<T: Real>(theta_mid: f64, closure: T, p: &ValveParams, u: f64, v: f64) -> Vec3<T> {
     let n = p.n_leaflets.max(1) as f64;
     let r = p.annulus_radius_m;
     let phi_o = p.open_angle_deg.to_radians();
     let phi_c = p.closed_angle_deg.to_radians();
-    let phi = phi_o + closure * (phi_c - phi_o);
+    let phi = closure.scale(phi_c - phi_o) + T::from_f64(phi_o);
     let len = (r - p.min_radius_m) / phi_c.sin();
     let s = v * len;
-    let rho = r - s * phi.sin();
-    let z = s * phi.cos() + p.bulge_m * (1.0 - u * u) * (core::f64::consts::PI * v).sin();
+    let rho = T::from_f64(r) - phi.sin().scale(s);
+    let z = phi.cos().scale(s)
+        + T::from_f64(p.bulge_m * (1.0 - u * u) * (core::f64::consts::PI * v).sin());
     let c = 0.5 * p.gap_m + 0.5 * p.thickness_m + 0.1 * p.thickness_m;
-    let half = core::f64::consts::PI / n - (c / rho).min(1.0).asin();
-    let psi = theta_mid + u * half.max(0.0);
-    [rho * psi.cos(), rho * psi.sin(), z]
+    let half = T::from_f64(core::f64::consts::PI / n) - (T::from_f64(c) / rho).min(T::one()).asin();
+    let psi = half.max(T::zero()).scale(u) + T::from_f64(theta_mid);
+    Vec3::new(rho * psi.cos(), rho * psi.sin(), z)
 }
 
-fn leaflet(theta_mid: f64, closure: f64, p: &ValveParams) -> TriangleMesh {
+/// Vertices of one leaflet shell: the top grid (mid-surface + normal·t/2), then
+/// the bottom grid (mid-surface − normal·t/2), each `(cells_across+1) ×
+/// (cells_along+1)`, row-major in `v`.
+fn leaflet_positions<T: Real>(theta_mid: f64, closure: T, p: &ValveParams) -> Vec<Vec3<T>> {
     let nu = p.cells_across.max(1);
     let nv = p.cells_along.max(1);
     let f = |u: f64, v: f64| mid_surface(theta_mid, closure, p, u, v);
     let (du, dv) = (1e-6, 1e-6);
-    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-    let idx = |i: usize, j: usize| (j * (nu + 1) + i) as u32;
     let n_grid = (nu + 1) * (nv + 1);
-    let mut positions = vec![[0.0; 3]; 2 * n_grid];
+    let mut positions = vec![Vec3::zero(); 2 * n_grid];
     for j in 0..=nv {
         for i in 0..=nu {
             let u = -1.0 + 2.0 * i as f64 / nu as f64;
@@ -143,20 +190,24 @@ fn leaflet(theta_mid: f64, closure: f64, p: &ValveParams) -> TriangleMesh {
             // Surface normal from central (one-sided at the border) differences.
             let (u0, u1) = ((u - du).max(-1.0), (u + du).min(1.0));
             let (v0, v1) = ((v - dv).max(0.0), (v + dv).min(1.0));
-            let pu = sub(f(u1, v), f(u0, v));
-            let pv = sub(f(u, v1), f(u, v0));
-            let nrm = [
-                pu[1] * pv[2] - pu[2] * pv[1],
-                pu[2] * pv[0] - pu[0] * pv[2],
-                pu[0] * pv[1] - pu[1] * pv[0],
-            ];
-            let l = (nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]).sqrt();
-            let h = 0.5 * p.thickness_m / l;
-            let id = idx(i, j) as usize;
-            positions[id] = [pm[0] + nrm[0] * h, pm[1] + nrm[1] * h, pm[2] + nrm[2] * h];
-            positions[n_grid + id] = [pm[0] - nrm[0] * h, pm[1] - nrm[1] * h, pm[2] - nrm[2] * h];
+            let pu = f(u1, v) - f(u0, v);
+            let pv = f(u, v1) - f(u, v0);
+            let offset = pu.cross(pv).normalize().scale(0.5 * p.thickness_m);
+            let id = j * (nu + 1) + i;
+            positions[id] = pm + offset;
+            positions[n_grid + id] = pm - offset;
         }
     }
+    positions
+}
+
+/// Triangles of one leaflet shell (top, bottom, side walls), top wound along
+/// `∂u × ∂v`.
+fn leaflet_triangles(p: &ValveParams) -> Vec<[u32; 3]> {
+    let nu = p.cells_across.max(1);
+    let nv = p.cells_along.max(1);
+    let idx = |i: usize, j: usize| (j * (nu + 1) + i) as u32;
+    let n_grid = (nu + 1) * (nv + 1);
     let top = |i, j| idx(i, j);
     let bot = |i, j| idx(i, j) + n_grid as u32;
     let mut triangles = Vec::with_capacity(4 * nu * nv + 4 * (nu + nv));
@@ -184,12 +235,7 @@ fn leaflet(theta_mid: f64, closure: f64, p: &ValveParams) -> TriangleMesh {
         triangles.push([tb, ta, ba]);
         triangles.push([tb, ba, bb]);
     }
-    let mut m = TriangleMesh {
-        positions,
-        triangles,
-    };
-    m.orient_outward();
-    m
+    triangles
 }
 
 /// The valve meshes shipped in `scenes/meshes/` (file stem, closure state), all

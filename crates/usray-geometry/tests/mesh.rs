@@ -7,7 +7,9 @@ use std::sync::Arc;
 use usray_ad::Dual;
 use usray_geometry::shapes::mesh::moller_trumbore;
 use usray_geometry::shapes::sphere::Sphere;
-use usray_geometry::valve::{valve_leaflet_meshes, valve_leaflets, ValveParams};
+use usray_geometry::valve::{
+    valve_leaflet_meshes, valve_leaflet_positions, valve_leaflets, ValveParams,
+};
 use usray_geometry::{Geometry, MeshBvh, MeshInstance, Ray, Transform, TriangleMesh, Vec3};
 
 /// Deterministic pseudo-random numbers in [0, 1) (SplitMix64).
@@ -520,4 +522,70 @@ fn hits_close_to_the_origin_are_not_culled_by_the_bvh() {
         .bvh
         .closest_hit([0.001, 0.002, 0.02 + 1e-8], [0.0, 0.0, 1.0], 1e-9, 1.0)
         .is_none());
+}
+
+#[test]
+fn valve_openness_derivative_matches_finite_differences() {
+    let p = ValveParams::default();
+    let place = Transform::from_euler(
+        Vec3::new(0.0, 0.0, 0.03),
+        Vec3::new(1.4, 0.0, 0.0), // valve axis tilted towards the probe's x-z plane
+        Vec3::new(1.0, 1.0, 1.0),
+    );
+    let step = 1e-6;
+    let at =
+        |openness: f64| MeshInstance::new(Arc::new(valve_leaflets(openness, &p)), place).unwrap();
+    let mut rng = Rng(3);
+    let mut checked = 0;
+    for openness in [0.3, 0.6] {
+        let mesh = Arc::new(valve_leaflets(openness, &p));
+        let verts = valve_leaflet_positions(Dual::<1>::variable(openness, 0), &p);
+        let place_d = Transform::from_euler(
+            Vec3::from_f64s([0.0, 0.0, 0.03]),
+            Vec3::from_f64s([1.4, 0.0, 0.0]),
+            Vec3::from_f64s([1.0, 1.0, 1.0]),
+        );
+        let inst = MeshInstance::new(mesh.clone(), place_d)
+            .unwrap()
+            .with_vertices(verts)
+            .unwrap();
+        let mut g = Geometry::<Dual<1>>::new();
+        g.add(inst).unwrap();
+        let (plus, minus) = (at(openness + step), at(openness - step));
+        let t_of = |inst: &MeshInstance<f64>, ray: &Ray<f64>| {
+            inst.find(ray, 1e-9, 1.0).map(|h| (h.t, h.triangle))
+        };
+        for _ in 0..200 {
+            let o = [rng.range(-0.015, 0.015), rng.range(-0.002, 0.002), 0.0];
+            let target = [rng.range(-0.015, 0.015), rng.range(-0.01, 0.01), 0.03];
+            let r64 = Ray::from_f64s(o, sub(target, o));
+            let Some(h) = g.intersect(&Ray::from_f64s(o, sub(target, o)), 1e-9, 1.0) else {
+                continue;
+            };
+            let (Some((tp, trp)), Some((tm, trm))) = (t_of(&plus, &r64), t_of(&minus, &r64)) else {
+                continue;
+            };
+            if trp != h.primitive || trm != h.primitive {
+                continue; // the FD stencil crossed a triangle edge: not comparable
+            }
+            let fd = (tp - tm) / (2.0 * step);
+            assert!(
+                (h.t.eps[0] - fd).abs() < 1e-6 * (1.0 + fd.abs()),
+                "dt/dopenness {} vs FD {fd}",
+                h.t.eps[0]
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 50, "only {checked} rays compared");
+    // Mismatched vertices are refused.
+    let mesh = Arc::new(valve_leaflets(0.3, &p));
+    let wrong = valve_leaflet_positions(0.31, &p)
+        .into_iter()
+        .map(|v| Vec3::from_f64s(v.value()))
+        .collect::<Vec<Vec3<f64>>>();
+    assert!(MeshInstance::new(mesh, Transform::<f64>::identity())
+        .unwrap()
+        .with_vertices(wrong)
+        .is_err());
 }

@@ -616,6 +616,11 @@ pub struct MeshInstance<T> {
     pub world_from_object: Transform<T>,
     /// BVH over the world-space triangles at the transform's value.
     pub bvh: Arc<MeshBvh>,
+    /// Optional differentiable object-frame vertex positions (same order and
+    /// values as `mesh.positions`), for meshes whose shape is a parameter (e.g.
+    /// [`crate::valve::valve_leaflet_positions`]); see
+    /// [`MeshInstance::with_vertices`].
+    pub vertices: Option<Arc<Vec<Vec3<T>>>>,
 }
 
 impl<T: Real> MeshInstance<T> {
@@ -632,19 +637,43 @@ impl<T: Real> MeshInstance<T> {
             mesh,
             world_from_object,
             bvh,
+            vertices: None,
         })
+    }
+
+    /// Attach differentiable object-frame vertex positions: hit quantities are
+    /// then recomputed from these (mapped by the `T` transform), so `t` carries
+    /// derivatives with respect to whatever the vertices depend on. Their values
+    /// must equal `mesh.positions` (same order), since the BVH was built from
+    /// those; a mismatch (or a different count) is an error.
+    pub fn with_vertices(mut self, vertices: Vec<Vec3<T>>) -> Result<Self, MeshError> {
+        let same = vertices.len() == self.mesh.positions.len()
+            && vertices
+                .iter()
+                .zip(&self.mesh.positions)
+                .all(|(v, p)| v.value() == *p);
+        if !same {
+            return Err(MeshError::VerticesMismatch {
+                expected: self.mesh.positions.len(),
+                got: vertices.len(),
+            });
+        }
+        self.vertices = Some(Arc::new(vertices));
+        Ok(self)
     }
 
     /// The same mesh and BVH with a transform in another scalar type. The new
     /// transform must have the **same value** as the one the BVH was built from
     /// (e.g. the dual version of the same scene); this is not checked beyond a
-    /// debug assertion.
+    /// debug assertion. Differentiable vertices are not carried over (attach
+    /// them again with [`MeshInstance::with_vertices`]).
     pub fn with_transform<U: Real>(&self, world_from_object: Transform<U>) -> MeshInstance<U> {
         debug_assert_eq!(world_from_object.to_f64(), self.world_from_object.to_f64());
         MeshInstance {
             mesh: self.mesh.clone(),
             world_from_object,
             bvh: self.bvh.clone(),
+            vertices: None,
         }
     }
 
@@ -662,9 +691,14 @@ impl<T: Real> MeshInstance<T> {
     /// World-space corners of a triangle in `T` (through the `T` transform).
     #[inline]
     pub fn world_corners(&self, triangle: u32) -> [Vec3<T>; 3] {
-        self.mesh
-            .corners(triangle as usize)
-            .map(|p| self.world_from_object.transform_point(Vec3::from_f64s(p)))
+        match &self.vertices {
+            Some(v) => self.mesh.triangles[triangle as usize]
+                .map(|k| self.world_from_object.transform_point(v[k as usize])),
+            None => self
+                .mesh
+                .corners(triangle as usize)
+                .map(|p| self.world_from_object.transform_point(Vec3::from_f64s(p))),
+        }
     }
 
     /// `t` (metres) and unit outward normal of the hit of `ray` with `triangle`,
