@@ -1,0 +1,395 @@
+//! The Monte Carlo path tracer: one generic function of `T: Real` from a lifted
+//! scene and a path key to a list of deposits `(element, amplitude a, time τ)`.
+//!
+//! # Estimator and units
+//! Channel data is `P(e, t) = Σ_k a_k·s(t − τ_k)` (`DESIGN.md`). Each element
+//! emits `rays_per_element` primary rays per transmit; every deposit is divided by
+//! that number, so the data is the Monte Carlo mean over an element's rays,
+//! summed over emitting elements. Emission has weight 1 (directivity divided by
+//! the cosine-hemisphere density, normalised by `π`). The weight a path carries is
+//! a *pressure amplitude* in the paper's radiance-like transport (eq.
+//! `pressure_equation`): spreading is carried by the ray density, never by an
+//! explicit `1/r` on the path. Receiver connections evaluate the element's solid
+//! angle `A_e cos θ_e / r²` (the same ray density, written for a chosen
+//! direction), so a point scatterer's echo falls as `1/r²` in this model.
+//!
+//! # Path loop (pbrt-style)
+//! 1. Emit: point on the element face, cosine-hemisphere direction, time stamp
+//!    = plane-wave transmit delay of the element (CONTRACT §1).
+//! 2. Intersect the scene (values in `f64` by the geometry's BVH / roots, hit
+//!    distance, point and normal recomputed in `T`).
+//! 3. Before the hit, volume scatterers along the segment (if the medium has
+//!    them) send receiver connections; a ray travelling up that reaches the array
+//!    plane first deposits directly if it lands on an element face and its path
+//!    is purely specular so far.
+//! 4. Advance: time `+= d/c` of the medium crossed, amplitude `×=` attenuation.
+//! 5. At the interface: the media on both sides from the medium stack; a
+//!    receiver connection if the interface is rough; then sample reflection or
+//!    transmission (GGX, `R²` split, detached pdfs), update the stack on
+//!    transmission.
+//! 6. Stop after `max_bounces` interactions, on escape, or a dead sample.
+//!
+//! **Double counting.** A path deposits by direct array hits only while every
+//! interaction so far was a delta (smooth) lobe; once a rough interaction has
+//! happened, arrival at the array is estimated by receiver connections only. Paths
+//! that need a delta lobe *after* the last rough vertex to reach the array (rough
+//! → mirror → array) are not counted: the connection is a straight line.
+//!
+//! **Connections** (paper, "Transducer Sampling"): an element is chosen uniformly
+//! (probability `1/N_e`, divided out), the aim point is its centre, and the
+//! straight segment to it is traced through the scene multiplying the Fresnel
+//! transmission coefficient of every boundary crossed (refraction is **ignored**
+//! on the connection, as in the paper; total internal reflection blocks it) and
+//! the attenuation of every medium; time accumulates `length / c` per medium.
+
+use crate::effects::{attenuation, depth_gain, ScattererField};
+use crate::fresnel::fresnel;
+use crate::ggx::{Interface, SMOOTH_ALPHA};
+use crate::probe::{
+    cosine_hemisphere, element_at, element_x, receive_directivity, transmit_delay,
+    transmit_directivity,
+};
+use crate::rng::{dim, PathSampler};
+use crate::scene::{MaterialT, SceneT};
+use usray_ad::Real;
+use usray_geometry::{MediumStack, Ray, Vec3};
+
+/// Closest distance (m) a ray may hit after leaving a surface: 0.1 µm, far below
+/// a wavelength (0.3 mm at 5 MHz) and above the f64 rounding of hit points.
+pub const T_MIN: f64 = 1e-7;
+
+/// Maximum boundaries a receiver connection crosses before it is dropped.
+const MAX_CONNECTION_CROSSINGS: usize = 32;
+
+/// Maximum volume-scattering events per segment (bounds the work; at most
+/// densities the expected count is far below).
+const MAX_VOLUME_EVENTS: u32 = 256;
+
+/// One contribution to the channel data: `a·s(t − τ)` on element `element`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Deposit<T> {
+    /// Receiving element.
+    pub element: u32,
+    /// Amplitude `a` (already divided by `rays_per_element`, depth gain applied).
+    pub amplitude: T,
+    /// Time of flight `τ` on the clock of CONTRACT §1, seconds.
+    pub time: T,
+}
+
+/// Fixed settings of a trace.
+#[derive(Clone, Copy, Debug)]
+pub struct TraceSettings {
+    /// Acquisition seed.
+    pub seed: u64,
+    /// Maximum interactions per path.
+    pub max_bounces: u32,
+    /// Rays per element (deposits are divided by it).
+    pub rays_per_element: usize,
+}
+
+/// Work counters of one trace.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TraceCounters {
+    /// Rays cast (primary segments, connection segments).
+    pub rays: u64,
+    /// Deposits made.
+    pub deposits: u64,
+}
+
+/// State shared by the steps of one path.
+struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>)> {
+    st: &'a SceneT<T>,
+    norm: T,
+    counters: TraceCounters,
+    out: F,
+}
+
+impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
+    /// Deposit on element `e`, applying the depth gain and the `1/rays` norm.
+    fn deposit(&mut self, e: usize, a: T, tau: T) {
+        let st = self.st;
+        let g = depth_gain(st.depth_gain_db_per_cm, st.imaging_sound_speed, tau);
+        let amplitude = a * g * self.norm;
+        if amplitude.value() == 0.0 || !amplitude.is_finite() || !tau.is_finite() {
+            return;
+        }
+        self.counters.deposits += 1;
+        (self.out)(Deposit {
+            element: e as u32,
+            amplitude,
+            time: tau,
+        });
+    }
+
+    /// Receiver connection from `p` (medium stack `stack` on the side the
+    /// connection leaves into) with scattering factor `f_cos` (1/sr) and path
+    /// amplitude `w` at time `tau`, towards a uniformly chosen element.
+    fn connect(&mut self, p: Vec3<T>, mut stack: MediumStack, w: T, f_cos: T, tau: T, u: f64) {
+        let st = self.st;
+        if f_cos.value() == 0.0 {
+            return;
+        }
+        let n_el = st.n_elements;
+        let e = ((u * n_el as f64) as usize).min(n_el - 1);
+        let target = Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
+        let v = target - p;
+        let r = v.length();
+        if r.value() <= T_MIN {
+            return;
+        }
+        let wo = v * r.recip();
+        let cos_e = -wo.z;
+        let fd = receive_directivity(cos_e, st.main_lobe, st.cutoff);
+        if fd.value() == 0.0 {
+            return;
+        }
+        // Trace the straight segment, crossing boundaries.
+        let mut amp = w * f_cos;
+        let mut time = tau;
+        let mut origin = p;
+        let mut remaining = r;
+        for _ in 0..MAX_CONNECTION_CROSSINGS {
+            let medium = *st.medium_of(stack.top());
+            let ray = Ray::new(origin, wo);
+            self.counters.rays += 1;
+            let hit = st
+                .geometry
+                .intersect(&ray, T_MIN, remaining.value() - T_MIN);
+            let Some(hit) = hit else {
+                time += remaining / medium.sound_speed;
+                amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, remaining);
+                let solid = st.element_width * st.elevation * cos_e / (r * r);
+                let a = amp * solid * fd * T::from_f64(n_el as f64);
+                self.deposit(e, a, time);
+                return;
+            };
+            time += hit.t / medium.sound_speed;
+            amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
+            remaining -= hit.t;
+            let entering = hit.entering(&wo);
+            let other = if entering {
+                st.objects[hit.object].material
+            } else {
+                *st.medium_of(stack.after_exit(hit.object))
+            };
+            let cos_i = wo.dot(hit.normal).abs();
+            let f = fresnel(
+                cos_i,
+                medium.sound_speed,
+                other.sound_speed,
+                medium.impedance,
+                other.impedance,
+            );
+            if f.tir {
+                return;
+            }
+            amp *= f.t;
+            stack.cross(hit.object, entering);
+            origin = hit.point;
+        }
+    }
+
+    /// Volume scatterers along a segment of length `len` from `origin` along `dir`
+    /// in `medium` (inside object `obj`), path amplitude `w`, time `tau` at origin.
+    #[allow(clippy::too_many_arguments)]
+    fn volume(
+        &mut self,
+        obj: usize,
+        medium: &MaterialT<T>,
+        stack: MediumStack,
+        origin: Vec3<T>,
+        dir: Vec3<T>,
+        len: f64,
+        w: T,
+        tau: T,
+        sampler: &PathSampler,
+        bounce: u32,
+    ) {
+        let Some(field) = ScattererField::new(obj, medium.scatterer_density_per_mm3.value()) else {
+            return;
+        };
+        if medium.scatterer_strength.value() == 0.0 {
+            return;
+        }
+        let mu = 1.0 / field.cell_m;
+        let mut s = 0.0;
+        for k in 0..MAX_VOLUME_EVENTS {
+            let u = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k);
+            s += -(1.0 - u).ln() / mu;
+            if s >= len {
+                return;
+            }
+            let on_line = origin.to_f64() + dir.to_f64().scale(s);
+            let (q, g) = field.scatterer_near::<T>(on_line.value());
+            // Time at the scatterer: along the ray to its projection, then across.
+            let along = (q - origin).dot(dir);
+            let t_q = tau + along / medium.sound_speed;
+            let a_q = w * attenuation(
+                medium.attenuation_db_cm_mhz,
+                self.st.center_frequency,
+                along,
+            );
+            let f = medium
+                .scatterer_strength
+                .scale(g / (4.0 * core::f64::consts::PI));
+            let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
+            self.connect(q, stack, a_q, f, t_q, ue);
+        }
+    }
+}
+
+/// Trace one primary path (transmit `tx`, emitting element `el`, ray index `ray`)
+/// and call `out` for each deposit. Returns the work counters.
+pub fn trace_path<T: Real>(
+    st: &SceneT<T>,
+    settings: &TraceSettings,
+    tx: usize,
+    el: usize,
+    ray: u32,
+    out: impl FnMut(Deposit<T>),
+) -> TraceCounters {
+    let mut ctx = PathCtx {
+        st,
+        norm: T::from_f64(1.0 / settings.rays_per_element as f64),
+        counters: TraceCounters::default(),
+        out,
+    };
+    let sampler = PathSampler::new(settings.seed, tx as u32, el as u32, ray);
+    let n_el = st.n_elements;
+
+    // Step 1: emission from the element face, cosine-weighted direction.
+    let xe = element_x(st.pitch, n_el, el);
+    let ux = sampler.uniform(0, dim::EMIT_X) - 0.5;
+    let uy = sampler.uniform(0, dim::EMIT_Y) - 0.5;
+    let mut origin = Vec3::new(
+        xe + st.element_width.scale(ux),
+        st.elevation.scale(uy),
+        T::zero(),
+    );
+    let dl = cosine_hemisphere(
+        sampler.uniform(0, dim::EMIT_U1),
+        sampler.uniform(0, dim::EMIT_U2),
+    );
+    let mut dir = Vec3::from_f64s(dl);
+    // f_d(ω)/p(ω) with p = cos θ/π detached, normalised by π: value 1.
+    let pdf = dl[2] / core::f64::consts::PI;
+    if pdf <= 0.0 {
+        return ctx.counters;
+    }
+    let mut w = transmit_directivity(dir) / T::from_f64(pdf * core::f64::consts::PI);
+    let mut time = transmit_delay(xe, st.angles[tx], st.imaging_sound_speed);
+    let mut stack = st.geometry.stack_at(origin.value());
+    let mut specular_chain = true;
+
+    for bounce in 1..=settings.max_bounces + 1 {
+        let medium = *st.medium_of(stack.top());
+        // Step 2: the next interface.
+        let r = Ray::new(origin, dir);
+        ctx.counters.rays += 1;
+        let hit = st.geometry.intersect(&r, T_MIN, f64::INFINITY);
+        // The array plane z = 0, reached first by a ray travelling up.
+        let t_array = if dir.z.value() < 0.0 {
+            -origin.z / dir.z
+        } else {
+            T::from_f64(f64::INFINITY)
+        };
+        let hit_first = hit.as_ref().is_some_and(|h| h.t.value() < t_array.value());
+        let seg_len = match (&hit, hit_first) {
+            (Some(h), true) => h.t.value(),
+            _ => t_array.value(),
+        };
+
+        // Step 3a: volume scatterers along the segment.
+        if let Some(obj) = stack.top() {
+            if medium.scatterer_density_per_mm3.value() > 0.0 && seg_len.is_finite() {
+                ctx.volume(
+                    obj, &medium, stack, origin, dir, seg_len, w, time, &sampler, bounce,
+                );
+            }
+        }
+
+        let Some(hit) = hit.filter(|_| hit_first) else {
+            // Step 3b: escape, or arrival at the array plane.
+            if t_array.value().is_finite() && specular_chain && stack.is_empty() {
+                let p = r.at(t_array);
+                let pv = p.value();
+                if let Some(e) =
+                    element_at(pv[0], pv[1], st.pitch, st.element_width, st.elevation, n_el)
+                {
+                    let fd = receive_directivity(-dir.z, st.main_lobe, st.cutoff);
+                    let tau = time + t_array / medium.sound_speed;
+                    let a = w
+                        * fd
+                        * attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, t_array);
+                    ctx.deposit(e, a, tau);
+                }
+            }
+            break;
+        };
+
+        // Step 4: advance to the interface.
+        time += hit.t / medium.sound_speed;
+        w *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
+        if bounce > settings.max_bounces {
+            break;
+        }
+
+        // Step 5: the interface between the current medium and the other side.
+        let entering = hit.entering(&dir);
+        let other = if entering {
+            st.objects[hit.object].material
+        } else {
+            *st.medium_of(stack.after_exit(hit.object))
+        };
+        let iface = Interface {
+            c1: medium.sound_speed,
+            c2: other.sound_speed,
+            z1: medium.impedance,
+            z2: other.impedance,
+            alpha: st.objects[hit.object].material.roughness,
+        };
+        let n_inc = if entering { hit.normal } else { -hit.normal };
+        let wi = -dir;
+
+        // Step 5a: receiver connection from a rough interface.
+        if iface.alpha.value() >= SMOOTH_ALPHA {
+            let ue = sampler.uniform(bounce, dim::ELEMENT);
+            let n_el_t = st.n_elements;
+            let e = ((ue * n_el_t as f64) as usize).min(n_el_t - 1);
+            let target = Vec3::new(element_x(st.pitch, n_el_t, e), T::zero(), T::zero());
+            let wo = (target - hit.point).normalize();
+            let f_cos = iface.eval(wi, wo, n_inc);
+            if f_cos.value() != 0.0 {
+                // The connection leaves into the incident medium (reflection) or
+                // the other one (transmission).
+                let mut cstack = stack;
+                if wo.dot(n_inc).value() < 0.0 {
+                    cstack.cross(hit.object, entering);
+                }
+                ctx.connect(hit.point, cstack, w, f_cos, time, ue);
+            }
+        }
+
+        // Step 5b: sample the continuation.
+        let Some(s) = iface.sample(
+            wi,
+            n_inc,
+            sampler.uniform(bounce, dim::GGX_U1),
+            sampler.uniform(bounce, dim::GGX_U2),
+            sampler.uniform(bounce, dim::SPLIT),
+        ) else {
+            break;
+        };
+        w *= s.weight;
+        if !w.is_finite() || w.value() == 0.0 {
+            break;
+        }
+        dir = s.wo;
+        specular_chain &= s.specular;
+        if !s.reflected {
+            stack.cross(hit.object, entering);
+        }
+        origin = hit.point;
+    }
+    ctx.counters
+}

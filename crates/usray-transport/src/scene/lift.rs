@@ -1,0 +1,210 @@
+//! The numeric state of a scene in any `T: Real`: what the tracer reads.
+
+use super::{Scene, SceneError, ShapeKind};
+use std::collections::HashMap;
+use std::sync::Arc;
+use usray_ad::Real;
+use usray_geometry::shapes::cylinder::Cylinder;
+use usray_geometry::shapes::half_space::HalfSpace;
+use usray_geometry::shapes::hollow_cylinder::HollowCylinder;
+use usray_geometry::shapes::slab::Slab;
+use usray_geometry::shapes::sphere::Sphere;
+use usray_geometry::{Geometry, Vec3};
+
+/// Acoustic properties of one medium, in `T`.
+#[derive(Clone, Copy, Debug)]
+pub struct MaterialT<T> {
+    /// Sound speed, m/s.
+    pub sound_speed: T,
+    /// Impedance, MRayl.
+    pub impedance: T,
+    /// GGX roughness `α` of the boundary of an object made of it.
+    pub roughness: T,
+    /// Attenuation, dB/(cm·MHz).
+    pub attenuation_db_cm_mhz: T,
+    /// Scatterers per mm³ (volume scattering; 0 = off).
+    pub scatterer_density_per_mm3: T,
+    /// Scatterer amplitude strength (dimensionless).
+    pub scatterer_strength: T,
+}
+
+/// One object of a lifted scene: its index in the geometry and its material.
+#[derive(Clone, Copy, Debug)]
+pub struct ObjectT<T> {
+    /// The object's material.
+    pub material: MaterialT<T>,
+}
+
+/// A scene's numbers in `T` (CONTRACT §1 frame, SI units): the input of the
+/// generic tracer. Build it with [`Scene::lift`].
+#[derive(Clone, Debug)]
+pub struct SceneT<T> {
+    /// Background medium (roughness unused).
+    pub medium: MaterialT<T>,
+    /// Objects, indexed like the geometry's objects and the scene's `[[objects]]`.
+    pub objects: Vec<ObjectT<T>>,
+    /// The geometry (hit finding in values, hit quantities in `T`).
+    pub geometry: Geometry<T>,
+    /// Number of elements.
+    pub n_elements: usize,
+    /// Element pitch, m.
+    pub pitch: T,
+    /// Element width, m.
+    pub element_width: T,
+    /// Element elevation extent, m.
+    pub elevation: T,
+    /// Centre frequency, Hz.
+    pub center_frequency: T,
+    /// Pulse cycles.
+    pub cycles: T,
+    /// Receive main lobe, radians.
+    pub main_lobe: T,
+    /// Receive cutoff, radians.
+    pub cutoff: T,
+    /// Steering angles, radians.
+    pub angles: Vec<T>,
+    /// Sampling frequency, Hz (a plain number: it fixes the sample grid).
+    pub fs: f64,
+    /// Depth gain, dB/cm.
+    pub depth_gain_db_per_cm: T,
+    /// Sound speed the scanner assumes (transmit delays, depth gain), m/s.
+    pub imaging_sound_speed: T,
+}
+
+impl<T: Real> SceneT<T> {
+    /// The medium of object `k`, or the background for `None`.
+    pub fn medium_of(&self, k: Option<usize>) -> &MaterialT<T> {
+        match k {
+            Some(k) => &self.objects[k].material,
+            None => &self.medium,
+        }
+    }
+}
+
+impl Scene {
+    /// Build the scene's numeric state in `T`. `seed(path, value)` turns each
+    /// parameter into a `T`: return `T::from_f64(value)` for a constant, or an AD
+    /// variable for a parameter to differentiate:
+    ///
+    /// ```
+    /// # let text = include_str!("../../../../scenes/cylinder.toml");
+    /// # let scene = usray_transport::Scene::from_toml_str(text, "cylinder.toml", ".").unwrap();
+    /// use usray_ad::{Dual, Real};
+    /// let st = scene
+    ///     .lift::<Dual<1>>(|path, v| {
+    ///         if path == "objects.cylinder.radius_m" { Dual::variable(v, 0) } else { Dual::from_f64(v) }
+    ///     })
+    ///     .unwrap();
+    /// assert_eq!(st.objects.len(), 1);
+    /// ```
+    pub fn lift<T: Real>(
+        &self,
+        mut seed: impl FnMut(&str, f64) -> T,
+    ) -> Result<SceneT<T>, SceneError> {
+        let mut vals: HashMap<String, T> = HashMap::new();
+        self.clone().visit_params_mut(&mut |p, v| {
+            vals.insert(p.to_string(), seed(p, *v));
+        });
+        let get = |p: &str| -> T {
+            // Every path read below is visited above (same scene), so this is total.
+            vals.get(p).copied().unwrap_or_else(|| T::from_f64(0.0))
+        };
+        let material = |prefix: &str, rough: bool| MaterialT {
+            sound_speed: get(&format!("{prefix}.sound_speed_m_s")),
+            impedance: get(&format!("{prefix}.impedance_mrayl")),
+            roughness: if rough {
+                get(&format!("{prefix}.roughness"))
+            } else {
+                T::zero()
+            },
+            attenuation_db_cm_mhz: get(&format!("{prefix}.attenuation_db_cm_mhz")),
+            scatterer_density_per_mm3: if rough {
+                get(&format!("{prefix}.scatterer_density_per_mm3"))
+            } else {
+                T::zero()
+            },
+            scatterer_strength: if rough {
+                get(&format!("{prefix}.scatterer_strength"))
+            } else {
+                T::zero()
+            },
+        };
+        let deg = T::from_f64(core::f64::consts::PI / 180.0);
+        let mut geometry = Geometry::new();
+        let mut objects = Vec::new();
+        for o in &self.objects {
+            let k = |leaf: &str| get(&format!("objects.{}.{leaf}", o.name));
+            let center = Vec3::new(k("center_m.0"), k("center_m.1"), k("center_m.2"));
+            let gerr = |e: &dyn std::fmt::Display| {
+                SceneError::new(&self.source, format!("objects.{}", o.name), e.to_string())
+            };
+            let added = match o.shape {
+                ShapeKind::Cylinder => match o.thickness_m {
+                    Some(_) => {
+                        geometry.add(HollowCylinder::new(center, k("radius_m"), k("thickness_m")))
+                    }
+                    None => geometry.add(Cylinder::new(center, k("radius_m"))),
+                },
+                ShapeKind::Sphere => geometry.add(Sphere::new(center, k("radius_m"))),
+                ShapeKind::Slab => geometry.add(Slab::new(k("z_top_m"), k("z_bottom_m"))),
+                ShapeKind::Plane => {
+                    let n = match o.normal {
+                        Some(_) => Vec3::new(k("normal.0"), k("normal.1"), k("normal.2")),
+                        None => Vec3::from_f64s([0.0, 0.0, -1.0]),
+                    };
+                    geometry.add(HalfSpace::new(center, n.normalize()))
+                }
+                ShapeKind::Mesh => {
+                    let mesh = crate::mesh::load_mesh(self, o)?;
+                    let rot = match o.rotation_deg {
+                        Some(_) => Vec3::new(
+                            k("rotation_deg.0") * deg,
+                            k("rotation_deg.1") * deg,
+                            k("rotation_deg.2") * deg,
+                        ),
+                        None => Vec3::zero(),
+                    };
+                    let s = match o.scale {
+                        Some(_) => k("scale"),
+                        None => T::one(),
+                    };
+                    let tf = usray_geometry::Transform::from_euler(center, rot, Vec3::new(s, s, s));
+                    let inst = usray_geometry::MeshInstance::new(Arc::clone(&mesh), tf)
+                        .map_err(|e| gerr(&e))?;
+                    geometry.add(inst)
+                }
+            };
+            added.map_err(|e| gerr(&e))?;
+            objects.push(ObjectT {
+                material: material(&format!("materials.{}", o.material), true),
+            });
+        }
+        Ok(SceneT {
+            medium: material("medium", false),
+            objects,
+            geometry,
+            n_elements: self.probe.n_elements,
+            pitch: get("probe.pitch_m"),
+            element_width: get("probe.element_width_m"),
+            elevation: get("probe.elevation_m"),
+            center_frequency: get("probe.center_frequency_hz"),
+            cycles: get("probe.cycles"),
+            main_lobe: get("probe.main_lobe_deg") * deg,
+            cutoff: get("probe.cutoff_deg") * deg,
+            angles: (0..self.acquisition.angles_deg.len())
+                .map(|i| get(&format!("acquisition.angles_deg.{i}")) * deg)
+                .collect(),
+            fs: self.acquisition.sampling_frequency_hz,
+            depth_gain_db_per_cm: get("acquisition.depth_gain_db_per_cm"),
+            imaging_sound_speed: match self.imaging.sound_speed_m_s {
+                Some(_) => get("imaging.sound_speed_m_s"),
+                None => get("medium.sound_speed_m_s"),
+            },
+        })
+    }
+
+    /// [`Scene::lift`] with every parameter a constant.
+    pub fn lift_const<T: Real>(&self) -> Result<SceneT<T>, SceneError> {
+        self.lift(|_, v| T::from_f64(v))
+    }
+}

@@ -1,0 +1,395 @@
+//! The TOML schema of CONTRACT §3 (every table rejects unknown keys) and its
+//! validation rules.
+
+use super::{Scene, SceneError};
+use serde::{Deserialize, Serialize};
+
+/// `[medium]`: the background medium the probe is coupled to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Medium {
+    /// Sound speed, m/s (used for transport).
+    pub sound_speed_m_s: f64,
+    /// Acoustic impedance, MRayl.
+    pub impedance_mrayl: f64,
+    /// Attenuation, dB/(cm·MHz) (effect `attenuation`; 0 = off).
+    #[serde(default)]
+    pub attenuation_db_cm_mhz: f64,
+}
+
+/// `[probe]`: a linear array (CONTRACT §1 frame).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Probe {
+    /// Array kind; only `"linear"`.
+    pub kind: String,
+    /// Number of elements.
+    pub n_elements: usize,
+    /// Centre-to-centre spacing, metres.
+    pub pitch_m: f64,
+    /// Element width along `x`, metres.
+    pub element_width_m: f64,
+    /// Centre frequency `f_c`, hertz.
+    pub center_frequency_hz: f64,
+    /// Pulse length in cycles (envelope FWHM = cycles/f_c; `usray_signal::pulse`).
+    pub cycles: f64,
+    /// Receive directivity main lobe, degrees (paper eq. `cutoff`, `α_m`).
+    pub main_lobe_deg: f64,
+    /// Receive directivity cutoff, degrees (paper eq. `cutoff`, `α_c`).
+    pub cutoff_deg: f64,
+    /// Element extent along `y` (elevation), metres; default 4 mm.
+    #[serde(default = "default_elevation")]
+    pub elevation_m: f64,
+}
+
+fn default_elevation() -> f64 {
+    4e-3
+}
+
+/// `[acquisition]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Acquisition {
+    /// Plane-wave steering angles, degrees.
+    pub angles_deg: Vec<f64>,
+    /// Sampling frequency, hertz.
+    pub sampling_frequency_hz: f64,
+    /// Deepest point recorded (two-way), metres.
+    pub max_depth_m: f64,
+    /// Primary rays emitted per element and transmit.
+    pub rays_per_element: usize,
+    /// Maximum number of surface interactions per path.
+    pub max_bounces: u32,
+    /// Random seed (counter-based RNG key).
+    pub seed: u64,
+    /// Scanner time-gain, dB per cm of depth `c·t/2` (effect `depth_gain`; 0 = off).
+    #[serde(default)]
+    pub depth_gain_db_per_cm: f64,
+}
+
+/// `[imaging]`: the beamformer's grid and assumptions.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Imaging {
+    /// Lateral extent `[x_min, x_max]`, metres.
+    pub x_range_m: [f64; 2],
+    /// Depth extent `[z_min, z_max]`, metres.
+    pub z_range_m: [f64; 2],
+    /// Pixel size, metres.
+    pub pixel_m: f64,
+    /// Receive F-number (0 = full aperture).
+    pub f_number: f64,
+    /// Displayed dynamic range, dB.
+    pub dynamic_range_db: f64,
+    /// Speed the beamformer assumes, m/s (default: the medium's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sound_speed_m_s: Option<f64>,
+}
+
+impl Default for Imaging {
+    fn default() -> Self {
+        Self {
+            x_range_m: [-0.02, 0.02],
+            z_range_m: [0.001, 0.035],
+            pixel_m: 0.1e-3,
+            f_number: 1.5,
+            dynamic_range_db: 60.0,
+            sound_speed_m_s: None,
+        }
+    }
+}
+
+/// `[materials.NAME]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Acoustic impedance, MRayl.
+    pub impedance_mrayl: f64,
+    /// Sound speed, m/s.
+    pub sound_speed_m_s: f64,
+    /// GGX roughness `α` (paper eq. `GGX_PDF`); 0 = smooth.
+    #[serde(default)]
+    pub roughness: f64,
+    /// Attenuation, dB/(cm·MHz); 0 = off.
+    #[serde(default)]
+    pub attenuation_db_cm_mhz: f64,
+    /// Sub-resolution scatterers per mm³ (effect `volume_scattering`; 0 = off).
+    #[serde(default)]
+    pub scatterer_density_per_mm3: f64,
+    /// Scatterer amplitude strength (dimensionless; 0 = off).
+    #[serde(default)]
+    pub scatterer_strength: f64,
+}
+
+/// The shape of an object.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShapeKind {
+    /// Infinite cylinder along `y` (`center_m`, `radius_m`, optional `thickness_m`).
+    Cylinder,
+    /// Sphere (`center_m`, `radius_m`).
+    Sphere,
+    /// Horizontal slab between depths `z_top_m` and `z_bottom_m`.
+    Slab,
+    /// Half-space: the solid is the side of the plane through `center_m` opposite
+    /// to `normal` (outward normal; default `[0, 0, −1]`: everything deeper).
+    Plane,
+    /// Closed triangle mesh from an OBJ file (`path`, relative to the scene file),
+    /// placed by `center_m` (translation), `rotation_deg` (Euler x, y, z) and `scale`.
+    Mesh,
+}
+
+/// `[[objects]]`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Object {
+    /// Unique name (used in parameter paths).
+    pub name: String,
+    /// Shape kind.
+    pub shape: ShapeKind,
+    /// Material name (a key of `[materials]`).
+    pub material: String,
+    /// Centre / reference point / translation, metres.
+    #[serde(default)]
+    pub center_m: [f64; 3],
+    /// Radius (cylinder, sphere), metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius_m: Option<f64>,
+    /// Wall thickness of a hollow cylinder, metres (effect `wall_thickness`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thickness_m: Option<f64>,
+    /// Slab top depth, metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z_top_m: Option<f64>,
+    /// Slab bottom depth, metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub z_bottom_m: Option<f64>,
+    /// Outward normal of a plane (half-space).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal: Option<[f64; 3]>,
+    /// Mesh file, relative to the scene file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path: Option<String>,
+    /// Mesh rotation, Euler angles about x, y, z in degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation_deg: Option<[f64; 3]>,
+    /// Mesh uniform scale.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale: Option<f64>,
+}
+
+pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
+    let f = s.source.as_str();
+    let err = |k: &str, m: &str| Err(SceneError::new(f, k, m));
+    // 1. Every continuous scalar is finite.
+    for (path, v) in s.params() {
+        if !v.is_finite() {
+            return Err(SceneError::new(
+                f,
+                path,
+                format!("expected a finite number, found {v}"),
+            ));
+        }
+    }
+    let pos = |k: &str, v: f64| -> Result<(), SceneError> {
+        if v > 0.0 {
+            Ok(())
+        } else {
+            Err(SceneError::new(
+                f,
+                k,
+                format!("expected a positive number, found {v}"),
+            ))
+        }
+    };
+    let nonneg = |k: &str, v: f64| -> Result<(), SceneError> {
+        if v >= 0.0 {
+            Ok(())
+        } else {
+            Err(SceneError::new(
+                f,
+                k,
+                format!("expected a number ≥ 0, found {v}"),
+            ))
+        }
+    };
+    // 2. Medium.
+    pos("medium.sound_speed_m_s", s.medium.sound_speed_m_s)?;
+    pos("medium.impedance_mrayl", s.medium.impedance_mrayl)?;
+    nonneg(
+        "medium.attenuation_db_cm_mhz",
+        s.medium.attenuation_db_cm_mhz,
+    )?;
+    // 3. Probe.
+    let p = &s.probe;
+    if p.kind != "linear" {
+        return err(
+            "probe.kind",
+            &format!("expected \"linear\", found {:?}", p.kind),
+        );
+    }
+    if p.n_elements == 0 {
+        return err("probe.n_elements", "expected at least 1 element");
+    }
+    pos("probe.pitch_m", p.pitch_m)?;
+    pos("probe.element_width_m", p.element_width_m)?;
+    pos("probe.center_frequency_hz", p.center_frequency_hz)?;
+    pos("probe.cycles", p.cycles)?;
+    pos("probe.elevation_m", p.elevation_m)?;
+    nonneg("probe.main_lobe_deg", p.main_lobe_deg)?;
+    if !(p.cutoff_deg > p.main_lobe_deg && p.cutoff_deg <= 90.0) {
+        return err(
+            "probe.cutoff_deg",
+            &format!(
+                "expected main_lobe_deg < cutoff_deg ≤ 90, found {} (main lobe {})",
+                p.cutoff_deg, p.main_lobe_deg
+            ),
+        );
+    }
+    // 4. Acquisition.
+    let a = &s.acquisition;
+    if a.angles_deg.is_empty() {
+        return err("acquisition.angles_deg", "expected at least one angle");
+    }
+    for (i, &ang) in a.angles_deg.iter().enumerate() {
+        if ang.abs() >= 90.0 {
+            return err(
+                &format!("acquisition.angles_deg.{i}"),
+                &format!("expected |angle| < 90 degrees, found {ang}"),
+            );
+        }
+    }
+    pos("acquisition.sampling_frequency_hz", a.sampling_frequency_hz)?;
+    pos("acquisition.max_depth_m", a.max_depth_m)?;
+    if a.rays_per_element == 0 {
+        return err("acquisition.rays_per_element", "expected at least 1 ray");
+    }
+    // 5. Imaging.
+    let im = &s.imaging;
+    pos("imaging.pixel_m", im.pixel_m)?;
+    nonneg("imaging.f_number", im.f_number)?;
+    pos("imaging.dynamic_range_db", im.dynamic_range_db)?;
+    if let Some(c) = im.sound_speed_m_s {
+        pos("imaging.sound_speed_m_s", c)?;
+    }
+    if im.x_range_m[1] <= im.x_range_m[0] {
+        return err("imaging.x_range_m", "expected [min, max] with min < max");
+    }
+    if im.z_range_m[1] <= im.z_range_m[0] {
+        return err("imaging.z_range_m", "expected [min, max] with min < max");
+    }
+    // 6. Materials.
+    for (name, m) in &s.materials {
+        let k = |leaf: &str| format!("materials.{name}.{leaf}");
+        pos(&k("impedance_mrayl"), m.impedance_mrayl)?;
+        pos(&k("sound_speed_m_s"), m.sound_speed_m_s)?;
+        nonneg(&k("roughness"), m.roughness)?;
+        nonneg(&k("attenuation_db_cm_mhz"), m.attenuation_db_cm_mhz)?;
+        nonneg(&k("scatterer_density_per_mm3"), m.scatterer_density_per_mm3)?;
+        nonneg(&k("scatterer_strength"), m.scatterer_strength)?;
+    }
+    // 7. Objects.
+    let mut names = std::collections::BTreeSet::new();
+    for (i, o) in s.objects.iter().enumerate() {
+        if o.name.is_empty() || o.name.contains('.') {
+            return err(
+                &format!("objects.{i}.name"),
+                "expected a non-empty name without '.'",
+            );
+        }
+        if !names.insert(o.name.as_str()) {
+            return err(
+                &format!("objects.{}.name", o.name),
+                "expected a unique object name (duplicate)",
+            );
+        }
+        let k = |leaf: &str| format!("objects.{}.{leaf}", o.name);
+        if !s.materials.contains_key(&o.material) {
+            return err(
+                &k("material"),
+                &format!(
+                    "unknown material {:?}; expected one of {:?}",
+                    o.material,
+                    s.materials.keys().collect::<Vec<_>>()
+                ),
+            );
+        }
+        let need = |leaf: &str, v: Option<f64>| -> Result<f64, SceneError> {
+            v.ok_or_else(|| {
+                SceneError::new(f, k(leaf), format!("required for shape {:?}", o.shape))
+            })
+        };
+        let forbid = |leaf: &str, present: bool| -> Result<(), SceneError> {
+            if present {
+                Err(SceneError::new(
+                    f,
+                    k(leaf),
+                    format!("not used by shape {:?}; remove it", o.shape),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        match o.shape {
+            ShapeKind::Cylinder | ShapeKind::Sphere => {
+                let r = need("radius_m", o.radius_m)?;
+                pos(&k("radius_m"), r)?;
+                if let Some(t) = o.thickness_m {
+                    if o.shape == ShapeKind::Sphere {
+                        return err(
+                            &k("thickness_m"),
+                            "hollow spheres are not supported; thickness_m is for cylinders",
+                        );
+                    }
+                    if !(t > 0.0 && t < r) {
+                        return err(
+                            &k("thickness_m"),
+                            &format!("expected 0 < thickness_m < radius_m = {r}, found {t}"),
+                        );
+                    }
+                }
+                forbid("z_top_m", o.z_top_m.is_some())?;
+                forbid("z_bottom_m", o.z_bottom_m.is_some())?;
+                forbid("path", o.path.is_some())?;
+            }
+            ShapeKind::Slab => {
+                let top = need("z_top_m", o.z_top_m)?;
+                let bot = need("z_bottom_m", o.z_bottom_m)?;
+                if bot <= top {
+                    return err(
+                        &k("z_bottom_m"),
+                        &format!("expected z_bottom_m > z_top_m = {top}, found {bot}"),
+                    );
+                }
+                forbid("radius_m", o.radius_m.is_some())?;
+                forbid("thickness_m", o.thickness_m.is_some())?;
+            }
+            ShapeKind::Plane => {
+                if let Some(n) = o.normal {
+                    if n.iter().map(|x| x * x).sum::<f64>() <= 0.0 {
+                        return err(&k("normal"), "expected a non-zero vector");
+                    }
+                }
+                forbid("radius_m", o.radius_m.is_some())?;
+                forbid("thickness_m", o.thickness_m.is_some())?;
+            }
+            ShapeKind::Mesh => {
+                let Some(path) = &o.path else {
+                    return err(&k("path"), "required for shape mesh (an OBJ file)");
+                };
+                let full = s.base_dir.join(path);
+                if !full.is_file() {
+                    return err(
+                        &k("path"),
+                        &format!("mesh file {} not found", full.display()),
+                    );
+                }
+                if let Some(sc) = o.scale {
+                    pos(&k("scale"), sc)?;
+                }
+                forbid("thickness_m", o.thickness_m.is_some())?;
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,100 @@
+//! Shared helpers for the transport tests: scene text builders and a plain
+//! plane-wave delay-and-sum used only by tests.
+#![allow(dead_code)]
+
+use usray_signal::ChannelData;
+
+/// A scene header (medium, probe, acquisition) for tests.
+pub fn header(n_elements: usize, width: f64, angles: &str, rays: usize, bounces: u32) -> String {
+    format!(
+        r#"
+[medium]
+sound_speed_m_s = 1540.0
+impedance_mrayl = 1.5
+
+[probe]
+kind = "linear"
+n_elements = {n_elements}
+pitch_m = 0.3e-3
+element_width_m = {width}
+center_frequency_hz = 5.0e6
+cycles = 3.0
+main_lobe_deg = 5.0
+cutoff_deg = 60.0
+elevation_m = 4.0e-3
+
+[acquisition]
+angles_deg = {angles}
+sampling_frequency_hz = 40.0e6
+max_depth_m = 0.03
+rays_per_element = {rays}
+max_bounces = {bounces}
+seed = 1
+"#
+    )
+}
+
+/// Path of a file in the workspace `scenes/` directory.
+pub fn scene_path(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes")
+        .join(name)
+}
+
+/// Plane-wave delay-and-sum (test-only, f64): envelope image `[nz][nx]` from the
+/// RF data, by beamforming the RF and its quarter-period-delayed copy (a
+/// narrow-band quadrature pair). Full receive aperture within `f_number`.
+pub fn das_envelope(
+    data: &ChannelData,
+    c: f64,
+    xs: &[f64],
+    zs: &[f64],
+    f_number: f64,
+) -> Vec<Vec<f64>> {
+    let m = &data.meta;
+    let fs = m.sampling_frequency_hz;
+    let n_el = data.n_elements();
+    let pitch = m.probe.pitch_m;
+    let quarter = 1.0 / (4.0 * m.center_frequency_hz);
+    let sample = |rec: &[f64], t: f64| -> f64 {
+        let s = (t - m.t0_s) * fs;
+        if s < 0.0 || s >= (rec.len() - 1) as f64 {
+            return 0.0;
+        }
+        let i = s.floor() as usize;
+        let f = s - i as f64;
+        rec[i] * (1.0 - f) + rec[i + 1] * f
+    };
+    zs.iter()
+        .map(|&z| {
+            xs.iter()
+                .map(|&x| {
+                    let (mut i_sum, mut q_sum) = (0.0, 0.0);
+                    for (tx, t) in m.transmits.iter().enumerate() {
+                        let th = t.angle_rad;
+                        let t_tx = (x * th.sin() + z * th.cos()) / c;
+                        for e in 0..n_el {
+                            let xe = (e as f64 - (n_el as f64 - 1.0) / 2.0) * pitch;
+                            if f_number > 0.0 && (x - xe).abs() > z / (2.0 * f_number) {
+                                continue;
+                            }
+                            let t_rx = ((x - xe).powi(2) + z * z).sqrt() / c;
+                            let rec = data.record(tx, e);
+                            i_sum += sample(rec, t_tx + t_rx);
+                            q_sum += sample(rec, t_tx + t_rx + quarter);
+                        }
+                    }
+                    (i_sum * i_sum + q_sum * q_sum).sqrt()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Mean and standard error of a sample.
+pub fn mean_se(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
+    (m, (var / n).sqrt())
+}
