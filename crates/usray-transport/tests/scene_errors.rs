@@ -1,0 +1,81 @@
+//! Bad scene input gives an error naming the file and the key; nothing panics.
+
+mod common;
+use common::scene_path;
+use usray_transport::{Scene, SceneError};
+
+fn base() -> String {
+    std::fs::read_to_string(scene_path("cylinder.toml")).unwrap()
+}
+
+fn err(text: &str) -> SceneError {
+    Scene::from_toml_str(text, "bad.toml", scene_path("")).unwrap_err()
+}
+
+#[test]
+fn unknown_key_names_file_and_key() {
+    let e = err(&base().replace("pitch_m = 0.3e-3", "pitch_m = 0.3e-3\npitch_mm = 0.3"));
+    assert_eq!(e.file, "bad.toml");
+    assert!(e.key.contains("probe.pitch_mm"), "{e}");
+    assert!(e.message.contains("unknown field"), "{e}");
+}
+
+#[test]
+fn wrong_type_names_key() {
+    let e = err(&base().replace("radius_m = 0.005", "radius_m = \"five\""));
+    assert!(
+        e.key.contains("objects.radius_m") || e.key.contains("radius_m"),
+        "{e}"
+    );
+}
+
+#[test]
+fn nan_and_negative_values_name_the_parameter() {
+    let e = err(&base().replace("radius_m = 0.005", "radius_m = nan"));
+    assert_eq!(e.key, "objects.cylinder.radius_m", "{e}");
+    assert!(e.message.contains("finite"));
+    let e = err(&base().replace("radius_m = 0.005", "radius_m = -0.005"));
+    assert_eq!(e.key, "objects.cylinder.radius_m", "{e}");
+    assert!(e.message.contains("positive"));
+    let e = err(&base().replace("sound_speed_m_s = 1570.0", "sound_speed_m_s = inf"));
+    assert_eq!(e.key, "materials.target.sound_speed_m_s", "{e}");
+}
+
+#[test]
+fn unknown_material_and_missing_mesh() {
+    let e = err(&base().replace("material = \"target\"", "material = \"steel\""));
+    assert_eq!(e.key, "objects.cylinder.material", "{e}");
+    let mesh = base().replace(
+        "shape = \"cylinder\"\ncenter_m = [0.0, 0.0, 0.015]\nradius_m = 0.005",
+        "shape = \"mesh\"\npath = \"meshes/nope.obj\"",
+    );
+    let e = err(&mesh);
+    assert_eq!(e.key, "objects.cylinder.path", "{e}");
+    assert!(e.message.contains("not found"), "{e}");
+    let e = Scene::load("/nonexistent/scene.toml").unwrap_err();
+    assert!(e.file.contains("/nonexistent/scene.toml"));
+}
+
+#[test]
+fn set_checks_paths_and_values() {
+    let mut s = Scene::from_toml_str(&base(), "ok.toml", ".").unwrap();
+    assert!(s.set("objects.cylinder.radius_m", -1.0).is_err());
+    assert_eq!(s.get("objects.cylinder.radius_m").unwrap(), 0.005);
+    let e = s.set("objects.cylinder.radius", 1.0).unwrap_err();
+    assert_eq!(e.key, "objects.cylinder.radius");
+    let paths: Vec<String> = s.params().into_iter().map(|(p, _)| p).collect();
+    for p in [
+        "objects.cylinder.radius_m",
+        "materials.target.impedance_mrayl",
+        "materials.target.roughness",
+        "probe.pitch_m",
+        "probe.center_frequency_hz",
+        "medium.sound_speed_m_s",
+        "objects.cylinder.center_m.2",
+    ] {
+        assert!(paths.iter().any(|q| q == p), "missing {p}");
+    }
+    for (p, v) in s.params() {
+        assert_eq!(s.get(&p).unwrap(), v);
+    }
+}
