@@ -1,0 +1,172 @@
+//! GGX microfacet interface: χ² test of the visible-normal sampler against its
+//! density, and the sampled-weight estimator against the numerically integrated
+//! BSDF (reflection + transmission).
+
+use usray_geometry::Vec3;
+use usray_transport::ggx::{sample_vndf, vndf_pdf, Interface};
+use usray_transport::rng::PathSampler;
+
+/// Upper-tail probability of χ² with `k` degrees of freedom by the
+/// Wilson–Hilferty normal approximation (accurate to ~1e-3 for k ≥ 30).
+fn chi2_pvalue(x: f64, k: f64) -> f64 {
+    let z = ((x / k).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
+    0.5 * erfc(z / std::f64::consts::SQRT_2)
+}
+
+/// Complementary error function (Numerical Recipes erfcc, |error| < 1.2e-7).
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
+}
+
+#[test]
+fn vndf_samples_follow_their_density_chi2() {
+    // Bins over (q, φh) with q = atan(tan θh / α)/(π/2) ∈ [0, 1) (a polar variable
+    // that resolves the peak for any α) and φh ∈ [0, 2π); expected counts by
+    // integrating the density with an 8×8 midpoint rule inside each bin
+    // (dω = sin θ (dθ/dq) dq dφ); bins with expected < 5 are merged into one.
+    // Threshold: p-value > 1e-3.
+    let (n_ct, n_phi) = (20, 24);
+    let n = 400_000usize;
+    for &(alpha, theta_i) in &[(0.3f64, 0.5f64), (0.6, 1.2), (0.1, 0.0)] {
+        let wi = [theta_i.sin(), 0.0, theta_i.cos()];
+        let mut counts = vec![0f64; n_ct * n_phi];
+        for k in 0..n {
+            let s = PathSampler::new(11, 0, 0, k as u32);
+            let h = sample_vndf(wi, alpha, s.uniform(0, 0), s.uniform(0, 1));
+            let theta = h[2].clamp(-1.0, 1.0).acos();
+            let q = ((theta.tan() / alpha).atan() / std::f64::consts::FRAC_PI_2)
+                .clamp(0.0, 1.0 - 1e-12);
+            let mut phi = h[1].atan2(h[0]);
+            if phi < 0.0 {
+                phi += 2.0 * std::f64::consts::PI;
+            }
+            let i = (q * n_ct as f64) as usize;
+            let j = ((phi / (2.0 * std::f64::consts::PI)) * n_phi as f64) as usize % n_phi;
+            counts[i * n_phi + j] += 1.0;
+        }
+        let wv = Vec3::new(wi[0], wi[1], wi[2]);
+        let mut expected = vec![0f64; n_ct * n_phi];
+        let sub = 8;
+        for i in 0..n_ct {
+            for j in 0..n_phi {
+                let mut acc = 0.0;
+                for a in 0..sub {
+                    for b in 0..sub {
+                        let q = (i as f64 + (a as f64 + 0.5) / sub as f64) / n_ct as f64;
+                        let tq = (q * std::f64::consts::FRAC_PI_2).tan();
+                        let theta = (alpha * tq).atan();
+                        let dtheta_dq = alpha * std::f64::consts::FRAC_PI_2 * (1.0 + tq * tq)
+                            / (1.0 + alpha * alpha * tq * tq);
+                        let ct = theta.cos();
+                        let phi = (j as f64 + (b as f64 + 0.5) / sub as f64) / n_phi as f64
+                            * 2.0
+                            * std::f64::consts::PI;
+                        let st = (1.0 - ct * ct).sqrt();
+                        let h = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+                        acc += vndf_pdf(wv, h, alpha) * st * dtheta_dq;
+                    }
+                }
+                let area = (1.0 / n_ct as f64) * (2.0 * std::f64::consts::PI / n_phi as f64);
+                expected[i * n_phi + j] = acc / (sub * sub) as f64 * area * n as f64;
+            }
+        }
+        let (mut chi2, mut dof, mut small_o, mut small_e) = (0.0, 0usize, 0.0, 0.0);
+        for (o, e) in counts.iter().zip(&expected) {
+            if *e < 5.0 {
+                small_o += o;
+                small_e += e;
+            } else {
+                chi2 += (o - e).powi(2) / e;
+                dof += 1;
+            }
+        }
+        if small_e >= 5.0 {
+            chi2 += (small_o - small_e).powi(2) / small_e;
+            dof += 1;
+        }
+        let total_e: f64 = expected.iter().sum();
+        let p = chi2_pvalue(chi2, (dof - 1) as f64);
+        eprintln!(
+            "alpha {alpha}, θi {theta_i}: χ² = {chi2:.1}, dof {}, p = {p:.3}, Σexpected/N = {:.4}",
+            dof - 1,
+            total_e / n as f64
+        );
+        assert!(
+            (total_e / n as f64 - 1.0).abs() < 2e-3,
+            "density does not integrate to 1"
+        );
+        assert!(p > 1e-3, "χ² test failed: p = {p}");
+    }
+}
+
+#[test]
+fn sampled_weight_matches_integrated_bsdf() {
+    let n_vec = Vec3::new(0.0, 0.0, 1.0);
+    for &(alpha, theta_i, c2, z2) in &[
+        (0.3f64, 0.4f64, 1800.0f64, 2.5f64),
+        (0.5, 1.0, 1300.0, 1.0),
+        (0.2, 0.2, 1300.0, 1.99),
+    ] {
+        let iface = Interface {
+            c1: 1540.0,
+            c2,
+            z1: 1.54,
+            z2,
+            alpha,
+        };
+        let wi = Vec3::new(theta_i.sin(), 0.0, theta_i.cos());
+        // Monte Carlo: mean weight and its standard error.
+        let n = 200_000usize;
+        let (mut s1, mut s2) = (0.0, 0.0);
+        for k in 0..n {
+            let s = PathSampler::new(5, 1, 2, k as u32);
+            let w = iface
+                .sample(wi, n_vec, s.uniform(1, 0), s.uniform(1, 1), s.uniform(1, 2))
+                .map(|x| x.weight)
+                .unwrap_or(0.0);
+            s1 += w;
+            s2 += w * w;
+        }
+        let mean = s1 / n as f64;
+        let se = ((s2 / n as f64 - mean * mean) / n as f64).sqrt();
+        // Quadrature of ∫ f(wi, wo)|wo·n| dwo over the sphere: midpoint rule in
+        // (cos θo, φo), refined near the specular directions by a fine grid.
+        let (n_c, n_p) = (1600, 720);
+        let mut integral = 0.0;
+        for a in 0..n_c {
+            let ct = -1.0 + 2.0 * (a as f64 + 0.5) / n_c as f64;
+            let st = (1.0 - ct * ct).sqrt();
+            for b in 0..n_p {
+                let phi = (b as f64 + 0.5) / n_p as f64 * 2.0 * std::f64::consts::PI;
+                let wo = Vec3::new(st * phi.cos(), st * phi.sin(), ct);
+                integral += iface.eval(wi, wo, n_vec);
+            }
+        }
+        integral *= (2.0 / n_c as f64) * (2.0 * std::f64::consts::PI / n_p as f64);
+        eprintln!(
+            "alpha {alpha}, θi {theta_i}, c2 {c2}, Z2 {z2}: MC {mean:.5} ± {se:.5}, quadrature {integral:.5}"
+        );
+        // Allowance for the quadrature error of the midpoint rule: 0.5 % of the value.
+        let tol = 4.0 * se + 5e-3 * integral.abs();
+        assert!(
+            (mean - integral).abs() < tol,
+            "MC {mean} vs quadrature {integral}"
+        );
+    }
+}
