@@ -41,18 +41,36 @@ fn main() {
     let (nz, nx) = das.image_shape();
     let work = (nz * nx * das.n_elements * das.n_transmits()) as f64;
     // IQ data once.
-    let (fc, fs, ns) = (ch.meta.center_frequency_hz, ch.meta.sampling_frequency_hz, ch.n_samples);
+    let (fc, fs, ns) = (
+        ch.meta.center_frequency_hz,
+        ch.meta.sampling_frequency_hz,
+        ch.n_samples,
+    );
     let d = IqDemod::new(fc, fs, 0.77 * fc / 2.0, 5).unwrap();
     let mut iq = vec![Complex64::new(0.0, 0.0); ch.samples.len()];
     let (mut re, mut im) = (vec![0.0; ns], vec![0.0; ns]);
     for (rec, o) in iq.chunks_mut(ns).enumerate() {
-        d.forward(&ch.samples[rec * ns..(rec + 1) * ns], ch.meta.t0_for(rec / 128), &mut re, &mut im, o);
+        d.forward(
+            &ch.samples[rec * ns..(rec + 1) * ns],
+            ch.meta.t0_for(rec / 128),
+            &mut re,
+            &mut im,
+            o,
+        );
     }
     let rf = ch.samples.clone();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    println!("grid {nz}×{nx}, {} elements, {} transmits: {:.3e} pixel·element·transmit samples per pass", das.n_elements, das.n_transmits(), work);
+    println!(
+        "grid {nz}×{nx}, {} elements, {} transmits: {:.3e} pixel·element·transmit samples per pass",
+        das.n_elements,
+        das.n_transmits(),
+        work
+    );
     for threads in [1, cores] {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| {
             let mut out = vec![Complex64::new(0.0, 0.0); nz * nx];
             let tf = time(5, || das.forward(&iq, &mut out));

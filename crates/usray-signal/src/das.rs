@@ -317,6 +317,26 @@ impl Das {
         );
         let w = TAU * self.fc_hz;
         let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
+        // Transmit delays and rotations per (transmit, pixel), once per call, so the
+        // per-element loop pays one sqrt and one sincos per (pixel, element) like
+        // the forward pass.
+        let npix = nx * self.z_m.len();
+        let mut txt = vec![0.0; nt * npix];
+        let mut txr = vec![Complex64::new(1.0, 0.0); if self.rotate { nt * npix } else { 0 }];
+        txt.par_chunks_mut(npix).enumerate().for_each(|(t, tab)| {
+            for (p, v) in tab.iter_mut().enumerate() {
+                let (x, z) = (self.x_m[p % nx], self.z_m[p / nx]);
+                *v = (x * trig[t].0 + z * trig[t].1) / c;
+            }
+        });
+        if self.rotate {
+            txr.par_chunks_mut(npix).enumerate().for_each(|(t, tab)| {
+                for (p, v) in tab.iter_mut().enumerate() {
+                    let (sn, co) = (w * txt[t * npix + p]).sin_cos();
+                    *v = Complex64::new(co, sn);
+                }
+            });
+        }
         // scratch layout [e][t][ns]: one contiguous block per element.
         scratch
             .par_chunks_mut(nt * ns)
@@ -330,19 +350,24 @@ impl Das {
                         if !self.in_aperture(dx, z) {
                             continue;
                         }
-                        let g = out_bar[iz * nx + ix];
+                        let p = iz * nx + ix;
+                        let g = out_bar[p];
                         let trx = (dx * dx + z * z).sqrt() / c;
+                        let grx = if self.rotate {
+                            let (sn, co) = (w * trx).sin_cos();
+                            g.rot_conj(Complex64::new(co, sn))
+                        } else {
+                            g
+                        };
                         for t in 0..nt {
-                            let tt = (x * trig[t].0 + z * trig[t].1) / c;
-                            let s = (tt - self.t0_s[t] + trx) * fs;
+                            let s = (txt[t * npix + p] - self.t0_s[t] + trx) * fs;
                             let Some((i, fw)) = locate(s, ns) else {
                                 continue;
                             };
                             let gr = if self.rotate {
-                                let (sn, co) = (w * (tt + trx)).sin_cos();
-                                g.rot_conj(Complex64::new(co, sn))
+                                grx.rot_conj(txr[t * npix + p])
                             } else {
-                                g
+                                grx
                             };
                             let base = t * ns + i;
                             blk[base] += gr.scale(1.0 - fw);

@@ -212,3 +212,53 @@ fn calibration_gradients_match_fd() {
         );
     }
 }
+
+#[test]
+fn bmode_calibration_gradients_match_fd() {
+    let ch = synthetic(2, 12);
+    let mut s = ImagingSettings::new([-1e-3, 1e-3], [2.5e-3, 5.5e-3], 0.25e-3);
+    s.f_number = 0.0;
+    s.dynamic_range_db = 300.0;
+    let build = |c: f64, pitch: f64| {
+        let mut s2 = s.clone();
+        s2.sound_speed_m_s = Some(c);
+        let mut m = ch.meta.clone();
+        m.probe.pitch_m = pitch;
+        (BMode::new(&s2, &m, ch.n_samples).unwrap(), m)
+    };
+    let (b, _) = build(1540.0, 0.3e-3);
+    let mut ws = b.workspace();
+    let img = b.forward(&ch, &mut ws);
+    let q = post::argmax(ws.envelope());
+    let mut r = Rng(21);
+    let w = r.vec(img.data.len());
+    let g = b.calibration_vjp(&mut ws, &w);
+    let loss = |c: f64, p: f64| {
+        let (b2, m) = build(c, p);
+        let c2 = ChannelData {
+            meta: m,
+            ..ch.clone()
+        };
+        let mut ws2 = b2.workspace();
+        let im = b2.forward(&c2, &mut ws2);
+        assert_eq!(post::argmax(ws2.envelope()), q, "arg-max moved");
+        dot(&im.data, &w)
+    };
+    let (hc, hp) = (1e-5, 1e-11);
+    let fdc = (loss(1540.0 + hc, 0.3e-3) - loss(1540.0 - hc, 0.3e-3)) / (2.0 * hc);
+    let fdp = (loss(1540.0, 0.3e-3 + hp) - loss(1540.0, 0.3e-3 - hp)) / (2.0 * hp);
+    eprintln!(
+        "B: dL/dc fd {fdc:.6e} an {:.6e}; dL/dpitch fd {fdp:.6e} an {:.6e}",
+        g.d_sound_speed, g.d_pitch
+    );
+    assert!(
+        rel(fdc, g.d_sound_speed) < 1e-4,
+        "c: fd {fdc} an {}",
+        g.d_sound_speed
+    );
+    assert!(
+        rel(fdp, g.d_pitch) < 1e-4,
+        "pitch: fd {fdp} an {}",
+        g.d_pitch
+    );
+}
