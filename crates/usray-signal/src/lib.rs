@@ -65,6 +65,6 @@ pub use bmode::{BMode, Demod, Image, ImagingSettings, Workspace};
 pub use channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta};
 pub use error::{Result, SignalError};
 pub use io::{read_channels, write_atomic, write_channels};
-pub use mat::import_mat;
+pub use mat::{import_mat, import_mat_with, ImportOptions};
 /// Complex sample type used for IQ and analytic data (re-exported from `rustfft`).
 pub use rustfft::num_complex::Complex64;

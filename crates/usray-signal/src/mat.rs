@@ -309,13 +309,44 @@ fn get<'a>(vars: &'a MatFile, name: &str) -> Option<&'a MatValue> {
 ///
 /// Errors name the file and the missing or unmappable variable.
 pub fn import_mat(path: impl AsRef<Path>) -> Result<ChannelData> {
+    import_mat_with(path, &ImportOptions::default())
+}
+
+/// What a `.mat` file may not store, supplied by the user. Values present in the
+/// file win over these only where noted.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ImportOptions {
+    /// Element pitch, m (full-matrix-capture files do not store it).
+    pub pitch_m: Option<f64>,
+    /// Centre frequency, Hz, used when the file has no `fc`.
+    pub center_frequency_hz: Option<f64>,
+}
+
+/// [`import_mat`] with user-supplied values for what the file does not store.
+///
+/// Besides the Verasonics plane-wave layout, this reads **full-matrix capture**
+/// files as in `synaptus` (`ArraySteelPins.mat`, `ArrayCuBlockStationary.mat`): a
+/// cell `data{k}` = int16 `(time, receive element)` for transmit element `k`,
+/// `fs` (MHz), `MWB` (µs, time of sample 0 after the excitation), `cp` (m/s),
+/// `nTotElem`, optional `fc` (Hz). Because the acquisition is linear, the sum over
+/// transmits `Σ_k data{k}` is the 0° plane wave fired by all elements at once
+/// (which passes the array centre at the excitation instant), so
+/// `t0_s = MWB` (CONTRACT §1), one transmit. The pitch is **required** from
+/// `options.pitch_m` (not in the file), the centre frequency from the file's `fc`
+/// or `options.center_frequency_hz`; the element width is not stored and is set to
+/// the pitch (recorded in `source.width_note`). The transducer's pulse-centre delay
+/// is unknown and not corrected (recorded in `source.clock`).
+pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Result<ChannelData> {
     let path = path.as_ref();
     let vars = read_mat(path)?;
     let err = |w: String| SignalError::format(path, w);
+    if get(&vars, "param").is_none() && matches!(get(&vars, "data"), Some(MatValue::Cell { .. })) {
+        return import_fmc(path, &vars, options);
+    }
     let param = get(&vars, "param").ok_or_else(|| {
         let names: Vec<&str> = vars.iter().map(|(n, _)| n.as_str()).collect();
         err(format!(
-            "no struct `param` (Verasonics plane-wave layout expected: `param` + `RF`); the file holds {names:?}"
+            "no struct `param` (Verasonics plane-wave layout expected: `param` + `RF`) and no full-matrix-capture cell `data`; the file holds {names:?}"
         ))
     })?;
     if !matches!(param, MatValue::Struct { .. }) {
@@ -434,5 +465,110 @@ pub fn import_mat(path: impl AsRef<Path>) -> Result<ChannelData> {
         },
         n_samples: ns,
         samples: re.clone(),
+    })
+}
+
+fn import_fmc(path: &Path, vars: &MatFile, options: &ImportOptions) -> Result<ChannelData> {
+    let err = |w: String| SignalError::format(path, w);
+    let scalar = |name: &str| -> Result<f64> {
+        get(vars, name)
+            .and_then(|v| v.scalar())
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| {
+                err(format!(
+                    "full-matrix capture: scalar `{name}` is missing or not finite"
+                ))
+            })
+    };
+    let fs = scalar("fs")? * 1e6; // stored in MHz
+    let t0 = scalar("MWB")? / 1e6; // stored in µs
+    let c = scalar("cp")?;
+    let ne = scalar("nTotElem")? as usize;
+    let fc = match get(vars, "fc").and_then(|v| v.scalar()) {
+        Some(f) => f,
+        None => options.center_frequency_hz.ok_or_else(|| {
+            err("full-matrix capture: no `fc` in the file; pass the centre frequency (ImportOptions::center_frequency_hz)".into())
+        })?,
+    };
+    let pitch = options.pitch_m.ok_or_else(|| {
+        err("full-matrix capture: the element pitch is not stored in the file; pass it (ImportOptions::pitch_m)".into())
+    })?;
+    if !(fs > 0.0 && c > 0.0 && fc > 0.0 && pitch > 0.0 && ne > 0) {
+        return Err(err(format!("full-matrix capture: non-positive fs {fs}, cp {c}, fc {fc}, pitch {pitch} or nTotElem {ne}")));
+    }
+    let Some(MatValue::Cell { cells, .. }) = get(vars, "data") else {
+        return Err(err("`data` is not a cell array".into()));
+    };
+    if cells.len() != ne {
+        return Err(err(format!(
+            "`data` has {} transmits, `nTotElem` = {ne}",
+            cells.len()
+        )));
+    }
+    let mut sum: Vec<f64> = Vec::new();
+    let mut ns = 0;
+    for (k, cell) in cells.iter().enumerate() {
+        let MatValue::Numeric { dims, re, im: None } = cell else {
+            return Err(err(format!(
+                "`data{{{}}}` is not a real numeric array",
+                k + 1
+            )));
+        };
+        if dims.len() != 2 || dims[1] != ne {
+            return Err(err(format!(
+                "`data{{{}}}` has dimensions {dims:?}; expected (time, {ne})",
+                k + 1
+            )));
+        }
+        if k == 0 {
+            ns = dims[0];
+            sum = vec![0.0; ns * ne];
+        } else if dims[0] != ns {
+            return Err(err(format!(
+                "`data{{{}}}` has {} samples, `data{{1}}` has {ns}",
+                k + 1,
+                dims[0]
+            )));
+        }
+        // Column-major (time, rx) → C order [rx, time]: identical memory order.
+        for (s, v) in sum.iter_mut().zip(re) {
+            *s += v;
+        }
+    }
+    let mut extra = serde_json::Map::new();
+    extra.insert(
+        "source".into(),
+        serde_json::json!({
+            "file": path.file_name().map(|f| f.to_string_lossy().into_owned()),
+            "layout": "full-matrix capture data{k}(time, rx), summed over k to a 0-degree plane wave",
+            "clock": "t0_s = MWB; the transducer's pulse-centre delay is unknown and not corrected",
+            "width_note": "element width not stored: set to the pitch",
+            "pitch_source": "user-supplied (not stored in the file)",
+        }),
+    );
+    Ok(ChannelData {
+        meta: ChannelMeta {
+            format: CHANNELS_FORMAT.into(),
+            sampling_frequency_hz: fs,
+            t0_s: t0,
+            sound_speed_m_s: c,
+            center_frequency_hz: fc,
+            probe: ProbeMeta {
+                kind: "linear".into(),
+                n_elements: ne,
+                pitch_m: pitch,
+                element_width_m: pitch,
+                extra: serde_json::Map::new(),
+            },
+            transmits: vec![TransmitMeta {
+                kind: "plane_wave".into(),
+                angle_rad: 0.0,
+                t0_s: None,
+                extra: serde_json::Map::new(),
+            }],
+            extra,
+        },
+        n_samples: ns,
+        samples: sum,
     })
 }

@@ -379,9 +379,20 @@ fn real_mat_truncated_is_an_error() {
     std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
     let e = import_mat(&p).unwrap_err().to_string();
     assert!(e.contains("cut.mat"), "{e}");
-    // The FMC files have no `param`: the error says what is there.
+    // The FMC files do not store the pitch (nor, for the pins, fc): refused, named.
     if let Some(fmc) = usray_testdata::data_file("real/ArraySteelPins.mat") {
         let e = import_mat(fmc).unwrap_err().to_string();
-        assert!(e.contains("param") && e.contains("data"), "{e}");
+        assert!(e.contains("ArraySteelPins.mat") && e.contains("fc"), "{e}");
+        let opts = usray_signal::ImportOptions {
+            pitch_m: None,
+            center_frequency_hz: Some(3.5e6),
+        };
+        let e = usray_signal::import_mat_with(
+            usray_testdata::data_file("real/ArraySteelPins.mat").unwrap(),
+            &opts,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("pitch"), "{e}");
     }
 }

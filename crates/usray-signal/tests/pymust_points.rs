@@ -78,7 +78,7 @@ pub fn compare(name: &str, demod: Demod) -> Option<f64> {
         .fold(0.0, f64::max);
     let v = ncc(&a, &r);
     eprintln!(
-        "{name}: NCC over {} px (PyMUST > -40 dB) = {v:.7}, max |ΔdB| = {max_diff:.4}",
+        "{name} ({demod:?}): NCC over {} px (PyMUST > -40 dB) = {v:.7}, max |ΔdB| = {max_diff:.4}",
         a.len()
     );
     Some(v)
