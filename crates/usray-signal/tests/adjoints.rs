@@ -31,7 +31,7 @@ fn das_case(seed: u64, ne: usize, nt: usize, nx: usize, nz: usize, fnum: f64, ro
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 64, .. ProptestConfig::default() })]
 
     #[test]
     fn das_iq_adjoint(seed in any::<u64>(), ne in 1usize..12, nt in 1usize..4, nx in 1usize..7, nz in 1usize..7,
@@ -177,21 +177,65 @@ proptest! {
     }
 }
 
+fn polymul(a: &[f64], b: &[f64]) -> Vec<f64> {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
+}
+
 #[test]
 fn butterworth_matches_scipy() {
-    // scipy.signal.butter(5, 0.25) → b, a; our cascade's response must equal
-    // |H(e^{jω})| of that transfer function: check the defining properties instead
-    // (−3 dB at the cut-off, unit DC gain, maximally flat: |H|² = 1/(1 + (tan(ω/2)/tan(ωc/2))^(2N))).
-    let fs = 1.0;
-    let cut = 0.125; // Wn = 0.25
-    let s = Sos::butter_lowpass(5, cut, fs).unwrap();
+    // scipy 1.17.1: b, a = scipy.signal.butter(5, 0.25)
+    let b_ref = [
+        0.003279216306360205,
+        0.016396081531801027,
+        0.03279216306360205,
+        0.03279216306360205,
+        0.016396081531801027,
+        0.003279216306360205,
+    ];
+    let a_ref = [
+        1.0,
+        -2.4744161749781632,
+        2.8110063119115827,
+        -1.7037722409154687,
+        0.5444326948885343,
+        -0.07231566910295853,
+    ];
+    let s = Sos::butter_lowpass(5, 0.125, 1.0).unwrap();
+    let (mut b, mut a) = (vec![1.0], vec![1.0]);
+    for q in &s.sections {
+        let nb = if q.b[2] == 0.0 && q.a[1] == 0.0 { 2 } else { 3 };
+        b = polymul(&b, &q.b[..nb]);
+        a = polymul(&a, &[1.0, q.a[0], q.a[1]][..nb]);
+    }
+    assert_eq!((b.len(), a.len()), (6, 6));
+    for k in 0..6 {
+        assert!(
+            (b[k] - b_ref[k]).abs() < 1e-14,
+            "b[{k}] {} vs {}",
+            b[k],
+            b_ref[k]
+        );
+        assert!(
+            (a[k] - a_ref[k]).abs() < 1e-13,
+            "a[{k}] {} vs {}",
+            a[k],
+            a_ref[k]
+        );
+    }
+    // Maximally flat: |H|² = 1/(1 + (tan(πf)/tan(πf_c))^(2N)) (bilinear Butterworth).
     for f in [0.0, 0.01, 0.05, 0.1, 0.125, 0.2, 0.3, 0.45] {
-        let ratio = (core::f64::consts::PI * f).tan() / (core::f64::consts::PI * cut).tan();
+        let ratio = (core::f64::consts::PI * f).tan() / (core::f64::consts::PI * 0.125).tan();
         let want = 1.0 / (1.0 + ratio.powi(10)).sqrt();
         assert!(
-            (s.magnitude(f, fs) - want).abs() < 1e-12,
+            (s.magnitude(f, 1.0) - want).abs() < 1e-12,
             "f {f}: {} vs {want}",
-            s.magnitude(f, fs)
+            s.magnitude(f, 1.0)
         );
     }
 }
@@ -218,4 +262,36 @@ fn das_is_independent_of_thread_count() {
         })
     };
     assert_eq!(run(1), run(3));
+}
+
+#[test]
+fn bmode_is_independent_of_thread_count() {
+    use usray_signal::{BMode, ChannelData, Demod, ImagingSettings};
+    let m = meta(12, 10e6, 3e6, &[-0.1, 0.1], &[0.0, -0.2e-6]);
+    let mut r = Rng(17);
+    let ch = ChannelData {
+        meta: m,
+        n_samples: 64,
+        samples: r.vec(2 * 12 * 64),
+    };
+    for demod in [Demod::Iq, Demod::Hilbert] {
+        let mut s = ImagingSettings::new([-1e-3, 1e-3], [1e-3, 3e-3], 0.2e-3);
+        s.demod = demod;
+        s.f_number = 1.0;
+        s.depth_gain_db_per_cm = 0.5;
+        let b = BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
+        let w = r.vec(11 * 11);
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut ws = b.workspace();
+                let img = b.forward(&ch, &mut ws);
+                (img.data, b.vjp(&mut ws, &w))
+            })
+        };
+        assert_eq!(run(1), run(3));
+    }
 }

@@ -10,6 +10,7 @@
 
 mod common;
 use common::*;
+use usray_ad::Real;
 use usray_signal::das::{linspace, Das};
 use usray_signal::{post, BMode, ChannelData, Complex64, Demod, ImagingSettings};
 
@@ -261,4 +262,26 @@ fn bmode_calibration_gradients_match_fd() {
         "pitch: fd {fdp} an {}",
         g.d_pitch
     );
+}
+
+#[test]
+fn pulse_is_generic_and_its_derivative_is_exact() {
+    use usray_ad::Dual;
+    use usray_signal::pulse::{pulse, pulse_dt, pulse_sigma};
+    let (fc, cycles) = (5e6, 3.0);
+    // σ definition: envelope at ±cycles/(2 f_c) is exactly 1/2.
+    let half = cycles / (2.0 * fc);
+    assert!(((-(half * half) / pulse_sigma(fc, cycles)).exp() - 0.5).abs() < 1e-15);
+    for k in -40..=40 {
+        let t = k as f64 * 13e-9;
+        let d = pulse(
+            Dual::<1>::variable(t, 0),
+            Dual::from_f64(fc),
+            Dual::from_f64(cycles),
+        );
+        assert_eq!(d.re, pulse(t, fc, cycles));
+        assert!(
+            (d.eps[0] - pulse_dt(t, fc, cycles)).abs() <= 1e-9 * 2.0 * core::f64::consts::PI * fc
+        );
+    }
 }
