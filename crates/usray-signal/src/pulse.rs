@@ -97,3 +97,35 @@ pub fn convolve_vjp(ybar: &[f64], taps: &[f64], xbar: &mut [f64]) {
         *xj = acc;
     }
 }
+
+/// Convolve every record of channel-shaped samples (`[.., n_samples]` records of
+/// length `n_samples`) with the pulse sampled at `fs`: `out = s ⋆ x` per record.
+/// The forward of paper eq. `axial_sig` applied to impulse-like deposits.
+pub fn convolve_records(x: &[f64], n_samples: usize, fs: f64, fc: f64, cycles: f64) -> Vec<f64> {
+    let taps = pulse_taps(fs, fc, cycles);
+    let mut out = vec![0.0; x.len()];
+    if n_samples > 0 {
+        for (xr, yr) in x.chunks(n_samples).zip(out.chunks_mut(n_samples)) {
+            convolve(xr, &taps, yr);
+        }
+    }
+    out
+}
+
+/// VJP of [`convolve_records`]: correlation of every record with the same taps.
+pub fn convolve_records_vjp(
+    ybar: &[f64],
+    n_samples: usize,
+    fs: f64,
+    fc: f64,
+    cycles: f64,
+) -> Vec<f64> {
+    let taps = pulse_taps(fs, fc, cycles);
+    let mut out = vec![0.0; ybar.len()];
+    if n_samples > 0 {
+        for (yr, xr) in ybar.chunks(n_samples).zip(out.chunks_mut(n_samples)) {
+            convolve_vjp(yr, &taps, xr);
+        }
+    }
+    out
+}

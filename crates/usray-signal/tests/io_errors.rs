@@ -396,3 +396,30 @@ fn real_mat_truncated_is_an_error() {
         assert!(e.contains("pitch"), "{e}");
     }
 }
+
+#[test]
+fn imaging_settings_from_contract_keys() {
+    // CONTRACT §3 `[imaging]`, as the CLI would hand it over after parsing TOML.
+    let v = serde_json::json!({
+        "x_range_m": [-0.02, 0.02], "z_range_m": [0.001, 0.035], "pixel_m": 0.1e-3,
+        "f_number": 1.5, "dynamic_range_db": 60.0, "sound_speed_m_s": 1540.0
+    });
+    let s: usray_signal::ImagingSettings = serde_json::from_value(v).unwrap();
+    assert_eq!(s.demod, usray_signal::Demod::Iq);
+    let (x, z) = s.grid().unwrap();
+    assert_eq!((x.len(), z.len()), (401, 341));
+    assert_eq!((x[0], x[400], z[0], z[340]), (-0.02, 0.02, 0.001, 0.035));
+    let s: usray_signal::ImagingSettings =
+        serde_json::from_value(serde_json::json!({"demod": "hilbert"})).unwrap();
+    assert_eq!(s.demod, usray_signal::Demod::Hilbert);
+    let mut bad = s.clone();
+    bad.pixel_m = 0.0;
+    assert!(bad.grid().unwrap_err().to_string().contains("pixel_m"));
+    let mut bad = s;
+    bad.dynamic_range_db = -1.0;
+    let m = meta(4, 20e6, 5e6, &[0.0], &[0.0]);
+    assert!(usray_signal::BMode::new(&bad, &m, 100)
+        .unwrap_err()
+        .to_string()
+        .contains("dynamic_range_db"));
+}
