@@ -156,6 +156,19 @@ pub fn linspace(a: f64, b: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Receive delays and phases on a lattice: when the pixel grid is uniform in `x`
+/// and the pitch is an integer multiple `k` of its step `h` (e.g. 0.1 mm pixels,
+/// 0.3 mm pitch), `x − x_e` only takes `nx + k(N−1)` distinct values per row, so
+/// the square root and the phase are computed once per value rather than once per
+/// (pixel, element). Index `j = ix + k(N − 1 − e)`.
+struct RxTable {
+    k: usize,
+    len: usize,
+    trx: Vec<f64>,
+    rrx: Vec<Complex64>,
+    ok: Vec<bool>,
+}
+
 impl Das {
     /// A beamformer for channel data described by `meta` with `n_samples` per record,
     /// on the grid `x_m` × `z_m`, at sound speed `c` (m/s) and F-number `f_number`.
@@ -216,6 +229,97 @@ impl Das {
         (e as f64 - (self.n_elements as f64 - 1.0) / 2.0) * self.pitch_m
     }
 
+    /// `k` if the x grid is uniform with step `h` and `pitch = k·h` (to 1e-12).
+    fn lattice_step(&self) -> Option<usize> {
+        let nx = self.x_m.len();
+        if nx < 2 {
+            return None;
+        }
+        let (x0, x1) = (self.x_m[0], self.x_m[nx - 1]);
+        let h = (x1 - x0) / (nx - 1) as f64;
+        if h.is_nan() || h <= 0.0 {
+            return None;
+        }
+        let scale = x0.abs().max(x1.abs()).max(h);
+        if self
+            .x_m
+            .iter()
+            .enumerate()
+            .any(|(i, &x)| (x - (x0 + i as f64 * h)).abs() > 1e-12 * scale)
+        {
+            return None;
+        }
+        let r = self.pitch_m / h;
+        let k = r.round();
+        ((1.0..=64.0).contains(&k) && (r - k).abs() <= 1e-12 * r).then_some(k as usize)
+    }
+
+    fn rx_table(&self) -> Option<RxTable> {
+        let k = self.lattice_step()?;
+        let (nx, ne) = (self.x_m.len(), self.n_elements);
+        let len = nx + k * (ne - 1);
+        let h = (self.x_m[nx - 1] - self.x_m[0]) / (nx - 1) as f64;
+        let mid = (ne as f64 - 1.0) / 2.0;
+        let (c, w) = (self.sound_speed_m_s, TAU * self.fc_hz);
+        let n = len * self.z_m.len();
+        let mut trx = vec![0.0; n];
+        let mut rrx = vec![Complex64::new(1.0, 0.0); n];
+        let mut ok = vec![false; n];
+        trx.par_chunks_mut(len)
+            .zip(rrx.par_chunks_mut(len))
+            .zip(ok.par_chunks_mut(len))
+            .enumerate()
+            .for_each(|(iz, ((tr, rr), okr))| {
+                let z = self.z_m[iz];
+                for j in 0..len {
+                    let dx =
+                        self.x_m[0] + (j as f64 - (k * (ne - 1)) as f64) * h + mid * self.pitch_m;
+                    okr[j] = self.in_aperture(dx, z);
+                    tr[j] = (dx * dx + z * z).sqrt() / c;
+                    if self.rotate {
+                        let (sn, co) = (w * tr[j]).sin_cos();
+                        rr[j] = Complex64::new(co, sn);
+                    }
+                }
+            });
+        Some(RxTable {
+            k,
+            len,
+            trx,
+            rrx,
+            ok,
+        })
+    }
+
+    /// Receive time and phase for (pixel `iz, ix`, element `e`), or `None` outside
+    /// the aperture.
+    #[inline(always)]
+    fn rx(
+        &self,
+        table: Option<&RxTable>,
+        iz: usize,
+        ix: usize,
+        e: usize,
+    ) -> Option<(f64, Complex64)> {
+        if let Some(t) = table {
+            let idx = iz * t.len + ix + t.k * (self.n_elements - 1 - e);
+            return t.ok[idx].then(|| (t.trx[idx], t.rrx[idx]));
+        }
+        let (x, z) = (self.x_m[ix], self.z_m[iz]);
+        let dx = x - self.element_x(e);
+        if !self.in_aperture(dx, z) {
+            return None;
+        }
+        let trx = (dx * dx + z * z).sqrt() / self.sound_speed_m_s;
+        let rrx = if self.rotate {
+            let (s, co) = (TAU * self.fc_hz * trx).sin_cos();
+            Complex64::new(co, s)
+        } else {
+            Complex64::new(1.0, 0.0)
+        };
+        Some((trx, rrx))
+    }
+
     #[inline]
     fn in_aperture(&self, dx: f64, z: f64) -> bool {
         self.f_number <= 0.0 || 2.0 * self.f_number * dx.abs() <= z
@@ -244,6 +348,8 @@ impl Das {
         );
         let w = TAU * self.fc_hz;
         let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
+        let table = self.rx_table();
+        let table = table.as_ref();
         out.par_chunks_mut(nx).enumerate().for_each_init(
             || {
                 (
@@ -266,16 +372,8 @@ impl Das {
                         acc[t] = S::zero();
                     }
                     for e in 0..ne {
-                        let dx = x - self.element_x(e);
-                        if !self.in_aperture(dx, z) {
+                        let Some((trx, rrx)) = self.rx(table, iz, ix, e) else {
                             continue;
-                        }
-                        let trx = (dx * dx + z * z).sqrt() / c;
-                        let rrx = if self.rotate {
-                            let (s, co) = (w * trx).sin_cos();
-                            Complex64::new(co, s)
-                        } else {
-                            Complex64::new(1.0, 0.0)
                         };
                         for t in 0..nt {
                             let s = (ttx[t] + trx) * fs;
@@ -337,27 +435,24 @@ impl Das {
                 }
             });
         }
+        let table = self.rx_table();
+        let table = table.as_ref();
         // scratch layout [e][t][ns]: one contiguous block per element.
         scratch
             .par_chunks_mut(nt * ns)
             .enumerate()
             .for_each(|(e, blk)| {
                 blk.fill(S::zero());
-                let xe = self.element_x(e);
-                for (iz, &z) in self.z_m.iter().enumerate() {
-                    for (ix, &x) in self.x_m.iter().enumerate() {
-                        let dx = x - xe;
-                        if !self.in_aperture(dx, z) {
+                for iz in 0..self.z_m.len() {
+                    for ix in 0..nx {
+                        let Some((trx, rrx)) = self.rx(table, iz, ix, e) else {
                             continue;
-                        }
+                        };
                         let p = iz * nx + ix;
-                        let g = out_bar[p];
-                        let trx = (dx * dx + z * z).sqrt() / c;
                         let grx = if self.rotate {
-                            let (sn, co) = (w * trx).sin_cos();
-                            g.rot_conj(Complex64::new(co, sn))
+                            out_bar[p].rot_conj(rrx)
                         } else {
-                            g
+                            out_bar[p]
                         };
                         for t in 0..nt {
                             let s = (txt[t * npix + p] - self.t0_s[t] + trx) * fs;

@@ -21,12 +21,32 @@ use usray_signal::filter::Sos;
 use usray_signal::{gain, pulse, Complex64};
 
 fn das_case(seed: u64, ne: usize, nt: usize, nx: usize, nz: usize, fnum: f64, rotate: bool) -> Das {
+    das_case_grid(seed, ne, nt, nx, nz, fnum, rotate, false)
+}
+
+/// `lattice`: x step 0.1 mm = pitch/3, which takes the receive-delay lattice path.
+fn das_case_grid(
+    seed: u64,
+    ne: usize,
+    nt: usize,
+    nx: usize,
+    nz: usize,
+    fnum: f64,
+    rotate: bool,
+    lattice: bool,
+) -> Das {
     let mut r = Rng(seed);
     let angles: Vec<f64> = (0..nt).map(|_| 0.2 * r.next()).collect();
     let t0s: Vec<f64> = (0..nt).map(|_| 0.3e-6 * r.next()).collect();
     let m = meta(ne, 10e6, 3e6, &angles, &t0s);
-    let x = linspace(-1e-3, 1e-3, nx);
-    let z = linspace(1e-3, 3e-3, nz);
+    let x = if lattice {
+        linspace(-0.9e-3, -0.9e-3 + (nx as f64 - 1.0) * 0.1e-3, nx)
+    } else {
+        linspace(-1e-3, 1e-3, nx)
+    };
+    // Depths chosen so no element sits exactly on an F-number aperture edge
+    // (where 1-ulp differences between two exact paths would flip inclusion).
+    let z = linspace(1.03e-3, 3.03e-3, nz);
     Das::new(&m, 60, x, z, 1540.0 * (1.0 + 0.05 * r.next()), fnum, rotate).unwrap()
 }
 
@@ -34,9 +54,9 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 64, .. ProptestConfig::default() })]
 
     #[test]
-    fn das_iq_adjoint(seed in any::<u64>(), ne in 1usize..12, nt in 1usize..4, nx in 1usize..7, nz in 1usize..7,
-                      fnum in prop_oneof![Just(0.0), 0.5f64..2.0]) {
-        let das = das_case(seed, ne, nt, nx, nz, fnum, true);
+    fn das_iq_adjoint(seed in any::<u64>(), ne in 1usize..12, nt in 1usize..4, nx in 1usize..12, nz in 1usize..7,
+                      fnum in prop_oneof![Just(0.0), 0.5f64..2.0], lattice in any::<bool>()) {
+        let das = das_case_grid(seed, ne, nt, nx, nz, fnum, true, lattice);
         let mut r = Rng(seed ^ 1);
         let x = r.cvec(das.data_len());
         let y = r.cvec(nx * nz);
@@ -58,9 +78,9 @@ proptest! {
     }
 
     #[test]
-    fn das_rf_adjoint(seed in any::<u64>(), ne in 1usize..12, nt in 1usize..4, nx in 1usize..7, nz in 1usize..7,
-                      fnum in prop_oneof![Just(0.0), 0.5f64..2.0]) {
-        let das = das_case(seed, ne, nt, nx, nz, fnum, false);
+    fn das_rf_adjoint(seed in any::<u64>(), ne in 1usize..12, nt in 1usize..4, nx in 1usize..12, nz in 1usize..7,
+                      fnum in prop_oneof![Just(0.0), 0.5f64..2.0], lattice in any::<bool>()) {
+        let das = das_case_grid(seed, ne, nt, nx, nz, fnum, false, lattice);
         let mut r = Rng(seed ^ 2);
         let x = r.vec(das.data_len());
         let y = r.vec(nx * nz);
@@ -293,5 +313,31 @@ fn bmode_is_independent_of_thread_count() {
             })
         };
         assert_eq!(run(1), run(3));
+    }
+}
+
+/// The lattice path (uniform x grid, pitch a multiple of the step) gives the same
+/// image as the direct path (one-column grids never use the lattice).
+#[test]
+fn das_lattice_path_matches_direct_path() {
+    for fnum in [0.0, 1.0] {
+        let das = das_case_grid(5, 16, 3, 25, 9, fnum, true, true);
+        let mut r = Rng(8);
+        let x = r.cvec(das.data_len());
+        let mut full = vec![Complex64::new(0.0, 0.0); 25 * 9];
+        das.forward(&x, &mut full);
+        for ix in [0, 7, 12, 24] {
+            let mut one = das.clone();
+            one.x_m = vec![das.x_m[ix]];
+            let mut col = vec![Complex64::new(0.0, 0.0); 9];
+            one.forward(&x, &mut col);
+            for iz in 0..9 {
+                let (a, b) = (full[iz * 25 + ix], col[iz]);
+                assert!(
+                    (a - b).norm() <= 1e-9 * b.norm().max(1e-3),
+                    "ix {ix} iz {iz}: {a} vs {b}"
+                );
+            }
+        }
     }
 }
