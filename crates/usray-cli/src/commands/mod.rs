@@ -1,21 +1,35 @@
 //! One module per subcommand.
 
+mod beamform;
+mod import;
+mod params;
+mod render;
+
 use crate::cli::Command;
+use crate::output::with_threads;
 
 /// Runs one parsed command.
 pub fn run(command: &Command) -> anyhow::Result<()> {
-    let common = command.common();
-    let _ = common;
-    match command {
-        Command::Demo { .. } => not_yet("demo", "the rendering pipeline (issues 3 and 4)"),
-        Command::Render { .. } => not_yet("render", "the transport crate (issue 3)"),
-        Command::Beamform { .. } => not_yet("beamform", "image formation (issue 4)"),
-        Command::Import { .. } => not_yet("import", "image formation (issue 4)"),
-        Command::Params { .. } => not_yet("params", "the transport crate (issue 3)"),
+    let threads = command.common().threads;
+    with_threads(threads, || match command {
+        Command::Render {
+            scene,
+            seed,
+            rays,
+            common,
+        } => render::run(scene, *seed, *rays, common),
+        Command::Beamform {
+            channels,
+            scene,
+            common,
+        } => beamform::run(channels, scene, common),
+        Command::Import { file, name, common } => import::run(file, name.as_deref(), common),
+        Command::Params { scene, common } => params::run(scene, &common.out),
+        Command::Demo { .. } => not_yet("demo", "calibration (issue 5)"),
         Command::Grad { .. } => not_yet("grad", "end-to-end gradients (issue 5)"),
         Command::Fit { .. } => not_yet("fit", "calibration (issue 5)"),
         Command::Diagnose { .. } => not_yet("diagnose", "the sim-to-real diagnosis (issue 6)"),
-    }
+    })?
 }
 
 fn not_yet(command: &str, needs: &str) -> anyhow::Result<()> {

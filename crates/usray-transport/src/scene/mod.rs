@@ -7,6 +7,7 @@
 //! [`params`]), and [`Scene::lift`] builds the numeric state the tracer uses in
 //! any `T: Real`, with chosen parameters seeded as AD variables.
 
+mod imaging;
 mod lift;
 pub mod params;
 mod schema;

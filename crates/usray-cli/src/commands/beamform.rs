@@ -1,0 +1,24 @@
+//! `usray beamform CHANNELS --scene SCENE`: B-mode from any channel data.
+
+use crate::cli::Common;
+use crate::output::OutDir;
+use anyhow::Result;
+use std::path::Path;
+use usray_signal::read_channels;
+use usray_transport::Scene;
+
+/// Beamforms the channel data at `channels` on the grid of `scene`'s `[imaging]`.
+pub fn run(channels: &Path, scene: &Path, common: &Common) -> Result<()> {
+    let scene = Scene::load(scene)?;
+    let data = read_channels(channels)?;
+    let out = OutDir::create(&common.out)?;
+    let (nz, nx) = super::render::beamform_to(&scene, &data, &out)?;
+    eprintln!(
+        "usray beamform: {} transmits × {} elements × {} samples → B-mode {nz}×{nx}; wrote bmode.npy and bmode.png to {}",
+        data.n_transmits(),
+        data.n_elements(),
+        data.n_samples,
+        common.out.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,42 @@
+//! `usray import FILE`: measured data into CONTRACT §2 channel data.
+
+use crate::cli::Common;
+use crate::output::OutDir;
+use anyhow::{Context, Result};
+use std::path::Path;
+use usray_signal::{import_mat, write_channels};
+
+/// Converts `file` and writes `NAME.npy`/`NAME.json` into `common.out`.
+pub fn run(file: &Path, name: Option<&str>, common: &Common) -> Result<()> {
+    let is_mat = file
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+    anyhow::ensure!(
+        is_mat,
+        "{}: only MATLAB .mat files (Verasonics-style) can be imported so far",
+        file.display()
+    );
+    let data = import_mat(file)?;
+    let stem = match name {
+        Some(n) => n.to_string(),
+        None => file
+            .file_stem()
+            .context("the input has no file name")?
+            .to_string_lossy()
+            .into_owned(),
+    };
+    let out = OutDir::create(&common.out)?;
+    let json = out.path(&format!("{stem}.json"));
+    write_channels(&json, &data)?;
+    eprintln!(
+        "usray import: {} → {} ({} transmits × {} elements × {} samples, fs {:.4e} Hz, t0 {:.4e} s on the CONTRACT §1 clock)",
+        file.display(),
+        json.display(),
+        data.n_transmits(),
+        data.n_elements(),
+        data.n_samples,
+        data.meta.sampling_frequency_hz,
+        data.meta.t0_s
+    );
+    Ok(())
+}
