@@ -238,6 +238,13 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
     }
 }
 
+/// The medium stack at element `el`'s centre on the array plane: the objects
+/// the element sits in (normally none). Emission points of an element share it.
+pub fn element_stack<T: Real>(st: &SceneT<T>, el: usize) -> MediumStack {
+    let xe = element_x(st.pitch, st.n_elements, el).value();
+    st.geometry.stack_at([xe, 0.0, 0.0])
+}
+
 /// Trace one primary path (transmit `tx`, emitting element `el`, ray index `ray`)
 /// and call `out` for each deposit. Returns the work counters.
 pub fn trace_path<T: Real>(
@@ -246,6 +253,20 @@ pub fn trace_path<T: Real>(
     tx: usize,
     el: usize,
     ray: u32,
+    out: impl FnMut(Deposit<T>),
+) -> TraceCounters {
+    trace_path_from(st, settings, tx, el, ray, element_stack(st, el), out)
+}
+
+/// [`trace_path`] with the element's medium stack given (see [`element_stack`];
+/// computed once per element by the renderer).
+pub fn trace_path_from<T: Real>(
+    st: &SceneT<T>,
+    settings: &TraceSettings,
+    tx: usize,
+    el: usize,
+    ray: u32,
+    start_stack: MediumStack,
     out: impl FnMut(Deposit<T>),
 ) -> TraceCounters {
     let mut ctx = PathCtx {
@@ -278,7 +299,7 @@ pub fn trace_path<T: Real>(
     }
     let mut w = transmit_directivity(dir) / T::from_f64(pdf * core::f64::consts::PI);
     let mut time = transmit_delay(xe, st.angles[tx], st.imaging_sound_speed);
-    let mut stack = st.geometry.stack_at(origin.value());
+    let mut stack = start_stack;
     let mut specular_chain = true;
 
     for bounce in 1..=settings.max_bounces + 1 {

@@ -42,8 +42,13 @@ pub fn transmit_directivity<T: Real>(dir: Vec3<T>) -> T {
 /// main lobe `α_m`, falling linearly to `0` at the cutoff `α_c`, `0` beyond.
 #[inline]
 pub fn receive_directivity<T: Real>(cos_alpha: T, main_lobe: T, cutoff: T) -> T {
-    if cos_alpha.value() <= 0.0 {
+    // Compare cosines first: the arccos is needed only on the linear flank.
+    let c = cos_alpha.value();
+    if c <= 0.0 || c < cutoff.value().cos() {
         return T::zero();
+    }
+    if c >= main_lobe.value().cos() {
+        return T::one();
     }
     let a = cos_alpha.safe_acos();
     if a.value() > cutoff.value() {

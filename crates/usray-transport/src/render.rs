@@ -13,7 +13,7 @@
 //! record length) and `4√σ` the pulse half-support. Echoes from steered transmits
 //! that arrive before `t = 0` (near-field, negative `x·sin θ`) are cut.
 
-use crate::integrator::{trace_path, Deposit, TraceCounters, TraceSettings};
+use crate::integrator::{element_stack, trace_path_from, Deposit, TraceCounters, TraceSettings};
 use crate::scene::{Scene, SceneError, SceneT};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -108,8 +108,9 @@ pub fn trace_all<T: Real>(
                 let (tx, el) = (c / n_el, c % n_el);
                 let mut deps = Vec::new();
                 let mut cnt = TraceCounters::default();
+                let stack = element_stack(st, el);
                 for ray in 0..s.rays_per_element {
-                    let k = trace_path(st, &s, tx, el, ray as u32, |d| deps.push(d));
+                    let k = trace_path_from(st, &s, tx, el, ray as u32, stack, |d| deps.push(d));
                     cnt.rays += k.rays;
                     cnt.deposits += k.deposits;
                 }
