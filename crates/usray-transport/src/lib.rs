@@ -52,9 +52,32 @@
 //! assert!(stats.rays_per_second > 0.0);
 //! ```
 //!
+//! # Conventions
+//! - **Frame and clock** (CONTRACT §1): `x` lateral, `y` elevation, `z` depth;
+//!   elements on `z = 0`; `t = 0` when the plane wavefront passes `(0, 0)`. An
+//!   element at `x_e` fires at `x_e·sin θ / c_img` (`c_img` = the speed the scanner
+//!   assumes, `imaging.sound_speed_m_s`, default the medium's). Records start at
+//!   `t0_s = 0` ([`render::sample_grid`]).
+//! - **Pulse**: `usray_signal::pulse` (paper eq. `axial_sig`), envelope FWHM =
+//!   `cycles / f_c`, i.e. `σ = (cycles/(2 f_c))² / ln 2`; centred on the time of
+//!   flight.
+//! - **Amplitude**: emission weight 1 per ray; every deposit is divided by
+//!   `rays_per_element`, so data is the mean over an element's rays summed over
+//!   emitting elements. Weights are pressure amplitudes; reflection multiplies by
+//!   `R`, transmission by `T = 1 + R` (Kinsler §6.3, energy
+//!   `R² + T²·Z1 cos θt/(Z2 cos θi) = 1`), each divided by its detached choice
+//!   probability (`R²`, `1 − R²`). Spreading is carried by ray density; receiver
+//!   connections use the element's solid angle `A_e cos θ_e / r²`.
+//! - **Elevation**: emission points cover the element face
+//!   (`element_width_m × elevation_m`), directions the full 3-D cosine hemisphere.
+//! - **Gradients**: every continuous quantity is computed in `T` from the lifted
+//!   scene; sampling decisions use values; probabilities are detached; visibility
+//!   changes (which surface is hit, which element a ray lands on) carry no
+//!   derivative.
+//!
 //! Modules: [`scene`] (file, validation, parameters, lifting), [`probe`],
 //! [`fresnel`], [`ggx`], [`rng`], [`integrator`] (the path tracer),
-//! [`deposit`] (placing echoes in time), [`effects`], [`render`] (parallel,
+//! [`deposit`] (placing echoes in time), [`effects`], [`mod@render`] (parallel,
 //! reproducible accumulation).
 
 pub mod deposit;
