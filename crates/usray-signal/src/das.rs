@@ -16,6 +16,10 @@
 //! `F`: element `e` contributes with weight 1 if `|x − x_e| ≤ z/(2F)`, else 0
 //! (rectangular; `F = 0` = full aperture). Transmits are summed coherently.
 //!
+//! Speed: when the `x` grid is uniform and the pitch is an integer multiple of its
+//! step, the receive distance and phase are tabulated once per distinct `x − x_e`
+//! per row (same formula, same values up to rounding).
+//!
 //! Parallelism: the forward pass is split over image rows, each pixel summing in a
 //! fixed order; the VJP is split over elements, each sample accumulating pixels in
 //! a fixed order; the calibration gradients reduce per-row partial sums in row order.
