@@ -6,13 +6,14 @@
 //!
 //! `τ = (x sin θ + z cos θ)/c + √((x − x_e)² + z²)/c`
 //!
-//! (Montaldo et al., IEEE TUFFC 56(3), 2009, eq. 2 with the transmit origin at the
+//! (Montaldo et al., "Coherent plane-wave compounding for very fast ultrasonography",
+//! IEEE TUFFC 56(3), 2009, with the transmit origin at the
 //! array centre). The sample position is `s = (τ − t0_θ)·f_s` with `t0_θ` the time of
 //! sample 0 of that transmit; the record is read by linear interpolation
 //! `P(s) = (1 − w)·P[i] + w·P[i+1]`, `i = ⌊s⌋`, `w = s − i`; positions with `s < 0`
 //! or `i + 1 ≥ n_samples` contribute 0. On baseband IQ data the interpolated value is
 //! multiplied by `exp(+2πi f_c τ)` to restore the carrier phase (Szabo, "Diagnostic
-//! Ultrasound Imaging", §10.5; as PyMUST `dasmtx`). Receive apodisation by F-number
+//! Ultrasound Imaging: Inside Out", quadrature sampling; as PyMUST `dasmtx`). Receive apodisation by F-number
 //! `F`: element `e` contributes with weight 1 if `|x − x_e| ≤ z/(2F)`, else 0
 //! (rectangular; `F = 0` = full aperture). Transmits are summed coherently.
 //!

@@ -1,6 +1,6 @@
 //! Demodulation to baseband (IQ) and the RF analytic signal (Hilbert), with VJPs.
 //!
-//! **IQ** (Szabo, "Diagnostic Ultrasound Imaging", §10.5 quadrature demodulation; as
+//! **IQ** (Szabo, "Diagnostic Ultrasound Imaging: Inside Out", quadrature demodulation; as
 //! PyMUST `rf2iq`): `IQ[n] = 2·LP{ rf[n]·exp(−2πi f_c t_n) }` with the absolute time
 //! `t_n = t0 + n/f_s` (CONTRACT §1 clock) and `LP` a zero-phase Butterworth low-pass
 //! ([`crate::filter`]). Using absolute time matters for band-pass-undersampled data

@@ -4,7 +4,7 @@
 //! Design: analog Butterworth prototype poles `p_k = exp(iπ(2k + N − 1)/(2N))`,
 //! `k = 1..N`, scaled to the pre-warped cut-off `Ω = 2 f_s tan(π f_cut / f_s)` and
 //! mapped by the bilinear transform `z = (2f_s + s)/(2f_s − s)` (Oppenheim & Schafer,
-//! "Discrete-Time Signal Processing", §7.1; identical to scipy's `butter`). Stored as
+//! "Discrete-Time Signal Processing", bilinear-transform IIR design; identical to scipy's `butter`). Stored as
 //! second-order sections, unit gain at DC (low-pass) or Nyquist (high-pass).
 //!
 //! Zero-phase application with **zero initial state and no edge padding**:

@@ -4,7 +4,7 @@
 //! (CONTRACT §1 clock) by `g(t) = 10^(α·d/20)`, `α` in dB/cm, where
 //! `d = 100·c·max(t, 0)/2` is the echo depth in cm (two-way path at sound speed `c`,
 //! m/s). Linear and diagonal: the VJP multiplies by the same `g` (Szabo, "Diagnostic
-//! Ultrasound Imaging", ch. 10, time-gain compensation).
+//! Ultrasound Imaging: Inside Out", time-gain compensation).
 
 use usray_ad::Real;
 

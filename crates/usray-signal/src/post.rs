@@ -1,6 +1,6 @@
 //! Post-processing of a beamformed complex image: envelope `|IQ|`, log compression
 //! `20·log10`, normalisation to the maximum, dynamic-range clipping to `[0, 1]`
-//! (Szabo, "Diagnostic Ultrasound Imaging", §10.7 "B-mode display"), with VJPs.
+//! (Szabo, "Diagnostic Ultrasound Imaging: Inside Out", B-mode display chain), with VJPs.
 //!
 //! With envelope `E_p = |u_p|`, maximum `M = max_q E_q` attained at `q*`, dynamic
 //! range `D` dB:

@@ -2,7 +2,7 @@
 //! with random sizes and data (proptest).
 //!
 //! Tolerances come from the standard floating-point bound for a sum of products
-//! (Higham, "Accuracy and Stability of Numerical Algorithms", §3.1): a computed sum
+//! (Higham, "Accuracy and Stability of Numerical Algorithms", 2nd ed., ch. 3): a computed sum
 //! of `m` terms `Σ a_i b_i` has error at most `γ_m Σ|a_i b_i|`, `γ_m ≈ m·ε`. Both
 //! sides of the identity evaluate the same bilinear form `Σ y_p W_pk x_k` in
 //! different orders, so `|lhs − rhs| ≤ 2 m ε Σ |y_p||W_pk||x_k|`, with `m` the longest
@@ -156,7 +156,7 @@ proptest! {
         let mut aty = vec![0.0; n];
         a.vjp(&mut y, &mut aty, &mut sc);
         let (lhs, rhs) = (cdot(&ax, &y0), dot(&x, &aty));
-        // FFT round-off: O(ε log₂ n) relative in ℓ2 per transform (Higham §24.1);
+        // FFT round-off: O(ε log₂ n) relative in ℓ2 per transform (Higham, ch. 24);
         // 4 transforms, ‖A‖₂ ≤ 2.
         let ny = y0.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
         let lg = (n as f64).log2().max(1.0);
