@@ -137,18 +137,43 @@ fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> SceneError {
         .map(|i| start + i)
         .unwrap_or(text.len());
     let line = text[line_start..line_end].trim();
-    // The enclosing table: the last header above the line.
+    // The enclosing table: the last header above the line. For an entry of an
+    // array of tables (`[[objects]]`), name it by its `name = "…"` key when it has
+    // one (`objects.cylinder`), else by its index (`objects.0`).
     let mut table = String::new();
-    for l in text[..line_start].lines().rev() {
+    let mut header_end = 0;
+    let mut is_array = false;
+    for (pos, l) in line_offsets(&text[..line_start]).into_iter().rev() {
         let l = l.trim();
         if l.starts_with('[') {
+            is_array = l.starts_with("[[");
             table = l
                 .trim_start_matches('[')
                 .trim_end_matches(']')
                 .trim()
                 .to_string();
+            header_end = pos + l.len();
             break;
         }
+    }
+    if is_array {
+        let header = format!("[[{table}]]");
+        let index = text[..header_end]
+            .matches(header.as_str())
+            .count()
+            .saturating_sub(1);
+        let block_end = text[header_end..]
+            .find("\n[")
+            .map(|i| header_end + i)
+            .unwrap_or(text.len());
+        let name = text[header_end..block_end].lines().find_map(|l| {
+            let (k, v) = l.split_once('=')?;
+            (k.trim() == "name").then(|| v.trim().trim_matches('"').to_string())
+        });
+        table = match name {
+            Some(n) if !n.is_empty() => format!("{table}.{n}"),
+            _ => format!("{table}.{index}"),
+        };
     }
     let key = if line.starts_with('[') {
         line.trim_start_matches('[')
@@ -168,4 +193,15 @@ fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> SceneError {
         table
     };
     SceneError::new(file, key, format!("{msg} (line {line_no})"))
+}
+
+/// `(byte offset, line)` of every line of `text`.
+fn line_offsets(text: &str) -> Vec<(usize, &str)> {
+    let mut out = Vec::new();
+    let mut pos = 0;
+    for l in text.split_inclusive('\n') {
+        out.push((pos, l.trim_end_matches('\n')));
+        pos += l.len();
+    }
+    out
 }
