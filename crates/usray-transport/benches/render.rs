@@ -49,16 +49,21 @@ fn main() {
     let cores = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1);
-    println!("## (a) cylinder.toml at default settings (median of {REPEATS})");
+    // `USRAY_BENCH_ONLY=b` skips part (a) (for profiling part (b) alone).
+    let only_b = std::env::var("USRAY_BENCH_ONLY").is_ok_and(|v| v == "b");
     let cyl = scene("cylinder.toml");
-    let paths =
-        cyl.probe.n_elements * cyl.acquisition.angles_deg.len() * cyl.acquisition.rays_per_element;
-    for threads in [1, cores] {
-        let (s, rps, rays) = bench_render(&cyl, threads);
-        println!(
+    if !only_b {
+        println!("## (a) cylinder.toml at default settings (median of {REPEATS})");
+        let paths = cyl.probe.n_elements
+            * cyl.acquisition.angles_deg.len()
+            * cyl.acquisition.rays_per_element;
+        for threads in [1, cores] {
+            let (s, rps, rays) = bench_render(&cyl, threads);
+            println!(
             "threads {threads}: {s:.3} s, {rays} rays ({paths} paths), {rps:.3e} rays/s, {:.3e} paths/s",
             paths as f64 / s
         );
+        }
     }
 
     println!(
