@@ -50,7 +50,7 @@ use crate::probe::{
     transmit_directivity,
 };
 use crate::rng::{dim, PathSampler};
-use crate::scene::{MaterialT, SceneT};
+use crate::scene::{Emission, MaterialT, SceneT};
 use usray_ad::Real;
 use usray_geometry::{MediumStack, Ray, Vec3};
 
@@ -287,17 +287,28 @@ pub fn trace_path_from<T: Real>(
         st.elevation.scale(uy),
         T::zero(),
     );
-    let dl = cosine_hemisphere(
-        sampler.uniform(0, dim::EMIT_U1),
-        sampler.uniform(0, dim::EMIT_U2),
-    );
-    let mut dir = Vec3::from_f64s(dl);
-    // f_d(ω)/p(ω) with p = cos θ/π detached, normalised by π: value 1.
-    let pdf = dl[2] / core::f64::consts::PI;
-    if pdf <= 0.0 {
-        return ctx.counters;
-    }
-    let mut w = transmit_directivity(dir) / T::from_f64(pdf * core::f64::consts::PI);
+    let (mut dir, mut w) = match st.emission {
+        Emission::Cosine => {
+            let dl = cosine_hemisphere(
+                sampler.uniform(0, dim::EMIT_U1),
+                sampler.uniform(0, dim::EMIT_U2),
+            );
+            let dir = Vec3::from_f64s(dl);
+            // f_d(ω)/p(ω) with p = cos θ/π detached, normalised by π: value 1.
+            let pdf = dl[2] / core::f64::consts::PI;
+            if pdf <= 0.0 {
+                return ctx.counters;
+            }
+            let w = transmit_directivity(dir) / T::from_f64(pdf * core::f64::consts::PI);
+            (dir, w)
+        }
+        Emission::PlaneWave => {
+            // A collimated bundle along the steering direction, weight f_d = cos θ.
+            let a = st.angles[tx];
+            let dir = Vec3::new(a.sin(), T::zero(), a.cos());
+            (dir, transmit_directivity(dir))
+        }
+    };
     let mut time = transmit_delay(xe, st.angles[tx], st.imaging_sound_speed);
     let mut stack = start_stack;
     let mut specular_chain = true;

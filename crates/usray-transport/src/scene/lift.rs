@@ -1,6 +1,6 @@
 //! The numeric state of a scene in any `T: Real`: what the tracer reads.
 
-use super::{Scene, SceneError, ShapeKind};
+use super::{Emission, Scene, SceneError, ShapeKind};
 use std::collections::HashMap;
 use std::sync::Arc;
 use usray_ad::Real;
@@ -69,6 +69,8 @@ pub struct SceneT<T> {
     pub depth_gain_db_per_cm: T,
     /// Sound speed the scanner assumes (transmit delays, depth gain), m/s.
     pub imaging_sound_speed: T,
+    /// Emission model of the primary rays.
+    pub emission: Emission,
 }
 
 impl<T: Real> SceneT<T> {
@@ -200,6 +202,7 @@ impl Scene {
                 Some(_) => get("imaging.sound_speed_m_s"),
                 None => get("medium.sound_speed_m_s"),
             },
+            emission: self.acquisition.emission,
         })
     }
 

@@ -65,6 +65,25 @@ pub struct Acquisition {
     /// Scanner time-gain, dB per cm of depth `c·t/2` (effect `depth_gain`; 0 = off).
     #[serde(default)]
     pub depth_gain_db_per_cm: f64,
+    /// How primary ray directions are chosen (default `"cosine"`).
+    #[serde(default)]
+    pub emission: Emission,
+}
+
+/// Emission model of the primary rays (`acquisition.emission`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Emission {
+    /// Each element radiates a cosine lobe (paper eq. `directivity`,
+    /// importance-sampled on the cosine-weighted hemisphere); the steered plane
+    /// wave only exists through the transmit delays, so echoes from off-axis
+    /// emitters add as incoherent Monte Carlo noise that averages out slowly.
+    #[default]
+    Cosine,
+    /// Geometric-acoustics plane wave: every ray leaves along the steering
+    /// direction `(sin θ, 0, cos θ)` with weight `f_d = cos θ` (paper eq.
+    /// `directivity` at that direction). No edge waves; far less noise.
+    PlaneWave,
 }
 
 /// `[imaging]`: the beamformer's grid and assumptions.
