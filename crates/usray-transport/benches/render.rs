@@ -12,6 +12,7 @@ use std::time::Instant;
 use usray_geometry::Shape;
 use usray_transport::probe::{cosine_hemisphere, element_x};
 use usray_transport::rng::{dim, PathSampler};
+use usray_transport::scene::Emission;
 use usray_transport::{render, RenderOptions, Scene};
 
 const REPEATS: usize = 5;
@@ -104,8 +105,16 @@ fn main() {
                 let x = element_x(st.pitch, n_el, el)
                     + st.element_width * (smp.uniform(0, dim::EMIT_X) - 0.5);
                 let y = st.elevation * (smp.uniform(0, dim::EMIT_Y) - 0.5);
-                let d =
-                    cosine_hemisphere(smp.uniform(0, dim::EMIT_U1), smp.uniform(0, dim::EMIT_U2));
+                let d = match valve.acquisition.emission {
+                    Emission::Cosine => cosine_hemisphere(
+                        smp.uniform(0, dim::EMIT_U1),
+                        smp.uniform(0, dim::EMIT_U2),
+                    ),
+                    Emission::PlaneWave => {
+                        let a = st.angles[tx];
+                        [a.sin(), 0.0, a.cos()]
+                    }
+                };
                 rays_v.push((
                     [x as f32, y as f32, 0.0f32],
                     [d[0] as f32, d[1] as f32, d[2] as f32],
