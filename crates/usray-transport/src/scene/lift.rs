@@ -210,4 +210,39 @@ impl Scene {
     pub fn lift_const<T: Real>(&self) -> Result<SceneT<T>, SceneError> {
         self.lift(|_, v| T::from_f64(v))
     }
+
+    /// [`Scene::lift`] into a forward dual with the named parameters as its `N`
+    /// partials, in the order given; an unknown path or `params.len() != N` is an
+    /// error naming the path.
+    ///
+    /// ```
+    /// # let text = include_str!("../../../../scenes/cylinder.toml");
+    /// # let scene = usray_transport::Scene::from_toml_str(text, "cylinder.toml", ".").unwrap();
+    /// let st = scene
+    ///     .lift_dual::<2>(&["objects.cylinder.radius_m", "materials.target.roughness"])
+    ///     .unwrap();
+    /// assert!(scene.lift_dual::<1>(&["objects.cylinder.nope"]).is_err());
+    /// ```
+    pub fn lift_dual<const N: usize>(
+        &self,
+        params: &[&str],
+    ) -> Result<SceneT<usray_ad::Dual<N>>, SceneError> {
+        if params.len() != N {
+            return Err(SceneError::new(
+                &self.source,
+                params.join(","),
+                format!(
+                    "expected exactly {N} parameter paths, found {}",
+                    params.len()
+                ),
+            ));
+        }
+        for p in params {
+            self.get(p)?;
+        }
+        self.lift(|path, v| match params.iter().position(|q| *q == path) {
+            Some(i) => usray_ad::Dual::variable(v, i),
+            None => usray_ad::Dual::from_f64(v),
+        })
+    }
 }
