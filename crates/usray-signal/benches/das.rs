@@ -84,11 +84,11 @@ fn main() {
             let tr = time(5, || rf_das.forward(&rf, &mut out_r));
             let mut ws = b.workspace();
             let tb = time(3, || {
-                let _ = b.forward(&ch, &mut ws);
+                b.forward(&ch, &mut ws).unwrap();
             });
             let dimg = vec![1e-3; nz * nx];
             let tbv = time(3, || {
-                let _ = b.vjp(&mut ws, &dimg);
+                b.vjp(&mut ws, &dimg).unwrap();
             });
             println!(
                 "threads {threads}: DAS IQ forward {:.1} ms ({:.3e} samples/s), DAS IQ VJP {:.1} ms ({:.3e}/s), DAS RF forward {:.1} ms ({:.3e}/s); whole B forward {:.1} ms, B VJP {:.1} ms",

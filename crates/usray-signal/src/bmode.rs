@@ -5,11 +5,21 @@
 //! Chain: depth-gain compensation ([`crate::gain`], optional) → per-record
 //! demodulation (IQ at `f_c` + zero-phase Butterworth low-pass, or the Hilbert
 //! analytic signal; [`crate::demod`]) → delay-and-sum with coherent compounding
-//! ([`crate::das`]) → envelope, `20·log10(·/max)`, clip to `[0, 1]`
-//! ([`crate::post`]).
+//! of the transmits **within each frame** ([`crate::das`]) → envelope per frame,
+//! **mean of the envelopes across frames** (incoherent compounding) →
+//! `20·log10(·/max)`, clip to `[0, 1]` ([`crate::post`]).
+//!
+//! Frames are the acquisitions named by the transmits' `frame` keys
+//! ([`ChannelMeta::frames`]): with `F` frames and `u_f` the coherent sum of
+//! frame `f`, the envelope is `E_p = (1/F) Σ_f |u_{f,p}|`, whose VJP is
+//! `ū_{f,p} = Ē_p/F · u_{f,p}/|u_{f,p}|`. Data without `frame` keys is one frame
+//! (`E = |u|`, all transmits coherent). Coherent summation across frames would be
+//! wrong for a moving object (the phases of successive frames differ).
 //!
 //! The forward pass keeps what the VJP needs in a [`Workspace`] allocated once;
-//! nothing is allocated per pixel or per sample.
+//! nothing is allocated per pixel or per sample. Shape mismatches between the
+//! operator, the channel data, the workspace and the cotangents are reported as
+//! [`SignalError::Invalid`], never as a panic.
 
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
@@ -21,6 +31,9 @@ use crate::demod::{Analytic, IqDemod};
 use crate::error::{Result, SignalError};
 use crate::gain::gain_table;
 use crate::post;
+
+/// Largest image (`nz · nx`) [`ImagingSettings::grid`] accepts.
+pub const MAX_PIXELS: usize = 20_000_000;
 
 /// How complex samples are formed before delay-and-sum.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -107,18 +120,28 @@ impl ImagingSettings {
                     self.pixel_m
                 )));
             }
-            let n = ((r[1] - r[0]) / self.pixel_m).round() as usize + 1;
-            if n > 100_000 {
+            let n = ((r[1] - r[0]) / self.pixel_m).round();
+            if n.is_nan() || n >= 100_000.0 {
                 return Err(SignalError::Invalid(format!(
-                    "imaging.{name}: {n} pixels is too many"
+                    "imaging.{name}: {} pixels is too many (at most 100000 per axis)",
+                    n + 1.0
                 )));
             }
-            Ok(linspace(r[0], r[1], n))
+            Ok(linspace(r[0], r[1], n as usize + 1))
         };
-        Ok((
+        let (x, z) = (
             axis("x_range_m", self.x_range_m)?,
             axis("z_range_m", self.z_range_m)?,
-        ))
+        );
+        if x.len() * z.len() > MAX_PIXELS {
+            return Err(SignalError::Invalid(format!(
+                "imaging grid of {} × {} = {} pixels is too large (at most {MAX_PIXELS})",
+                z.len(),
+                x.len(),
+                x.len() * z.len()
+            )));
+        }
+        Ok((x, z))
     }
 }
 
@@ -153,8 +176,17 @@ impl Image {
 pub struct BMode {
     /// The settings it was built from.
     pub settings: ImagingSettings,
-    /// The delay-and-sum stage (grid, clock, aperture).
+    /// The delay-and-sum configuration of the whole acquisition (grid, clock,
+    /// aperture, every transmit in file order). Image formation runs one
+    /// delay-and-sum per frame ([`BMode::frame_das`]).
     pub das: Das,
+    /// Per frame: the delay-and-sum over that frame's transmits.
+    frames: Vec<Das>,
+    /// Transmit indices in frame-grouped order (position in the workspace →
+    /// transmit in the channel data).
+    order: Vec<usize>,
+    /// First grouped position of each frame, plus the total (`frames.len() + 1`).
+    frame_start: Vec<usize>,
     demod: Option<IqDemod>,
     analytic: Option<Analytic>,
     gain: Option<Vec<f64>>,
@@ -164,9 +196,11 @@ pub struct BMode {
 /// Buffers for [`BMode::forward`] and [`BMode::vjp`], allocated once.
 #[derive(Clone, Debug)]
 pub struct Workspace {
+    /// Demodulated records, frame-grouped order.
     cx: Vec<Complex64>,
     cx_bar: Vec<Complex64>,
     scratch: Vec<Complex64>,
+    /// Coherent image of each frame, `[n_frames, nz, nx]`.
     bf: Vec<Complex64>,
     bf_bar: Vec<Complex64>,
     env: Vec<f64>,
@@ -178,11 +212,12 @@ pub struct Workspace {
 }
 
 impl Workspace {
-    /// The beamformed complex image of the last forward call, `[nz, nx]`.
+    /// The beamformed complex images of the last forward call, one per frame,
+    /// `[n_frames, nz, nx]` (`[nz, nx]` for single-frame data).
     pub fn beamformed(&self) -> &[Complex64] {
         &self.bf
     }
-    /// The envelope of the last forward call.
+    /// The envelope of the last forward call (mean over frames), `[nz, nx]`.
     pub fn envelope(&self) -> &[f64] {
         &self.env
     }
@@ -192,8 +227,21 @@ impl Workspace {
     }
 }
 
+fn check_len(what: &str, expected: usize, given: usize) -> Result<()> {
+    if expected == given {
+        Ok(())
+    } else {
+        Err(SignalError::Invalid(format!(
+            "{what} has {given} values, expected {expected}"
+        )))
+    }
+}
+
 impl BMode {
     /// Build `B` for channel data described by `meta` with `n_samples` per record.
+    ///
+    /// Transmits are grouped into frames by their `frame` keys
+    /// ([`ChannelMeta::frames`]).
     pub fn new(settings: &ImagingSettings, meta: &ChannelMeta, n_samples: usize) -> Result<BMode> {
         let (x, z) = settings.grid()?;
         let c = settings.sound_speed_m_s.unwrap_or(meta.sound_speed_m_s);
@@ -203,10 +251,65 @@ impl BMode {
                 settings.dynamic_range_db
             )));
         }
+        if meta.probe.n_elements == 0 || meta.transmits.is_empty() || n_samples < 2 {
+            return Err(SignalError::Invalid(format!(
+                "channel data shape [{} transmits, {} elements, {n_samples} samples]: need at least 1 transmit, 1 element and 2 samples",
+                meta.transmits.len(),
+                meta.probe.n_elements
+            )));
+        }
+        meta.transmits
+            .len()
+            .checked_mul(meta.probe.n_elements)
+            .and_then(|r| r.checked_mul(n_samples))
+            .ok_or_else(|| SignalError::Invalid("channel data shape overflows".into()))?;
+        let (fs, fc) = (meta.sampling_frequency_hz, meta.center_frequency_hz);
+        for (name, v) in [
+            ("sampling_frequency_hz", fs),
+            ("center_frequency_hz", fc),
+            ("probe.pitch_m", meta.probe.pitch_m),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SignalError::Invalid(format!(
+                    "channel metadata `{name}` = {v} (must be positive and finite)"
+                )));
+            }
+        }
+        let groups = meta.frames().map_err(SignalError::Invalid)?;
         let rotate = settings.demod == Demod::Iq;
-        let das = Das::new(meta, n_samples, x, z, c, settings.f_number, rotate)?;
-        let fs = meta.sampling_frequency_hz;
-        let fc = meta.center_frequency_hz;
+        let das = Das::new(
+            meta,
+            n_samples,
+            x.clone(),
+            z.clone(),
+            c,
+            settings.f_number,
+            rotate,
+        )?;
+        let mut frames = Vec::with_capacity(groups.len());
+        let mut order = Vec::with_capacity(meta.transmits.len());
+        let mut frame_start = vec![0];
+        for g in &groups {
+            let mut m = meta.clone();
+            m.transmits = g.iter().map(|&t| meta.transmits[t].clone()).collect();
+            frames.push(Das::new(
+                &m,
+                n_samples,
+                x.clone(),
+                z.clone(),
+                c,
+                settings.f_number,
+                rotate,
+            )?);
+            order.extend_from_slice(g);
+            frame_start.push(order.len());
+        }
+        if settings.demod == Demod::Iq && !(1..=20).contains(&settings.filter_order) {
+            return Err(SignalError::Invalid(format!(
+                "imaging.filter_order = {} (the IQ low-pass order must be 1–20)",
+                settings.filter_order
+            )));
+        }
         let (demod, analytic) = match settings.demod {
             Demod::Iq => {
                 let frac = settings.iq_bandwidth_fraction.unwrap_or_else(|| {
@@ -243,6 +346,9 @@ impl BMode {
         Ok(BMode {
             settings: settings.clone(),
             das,
+            frames,
+            order,
+            frame_start,
             demod,
             analytic,
             gain,
@@ -255,6 +361,30 @@ impl BMode {
         self.das.image_shape()
     }
 
+    /// Shape of the channel data this operator takes:
+    /// `(n_transmits, n_elements, n_samples)`.
+    pub fn channel_shape(&self) -> (usize, usize, usize) {
+        (self.das.n_transmits(), self.n_elements, self.das.n_samples)
+    }
+
+    /// Number of frames (incoherently averaged acquisitions).
+    pub fn n_frames(&self) -> usize {
+        self.frames.len()
+    }
+
+    /// The transmits (indices into the channel data) of each frame.
+    pub fn frame_transmits(&self) -> Vec<&[usize]> {
+        self.frame_start
+            .windows(2)
+            .map(|w| &self.order[w[0]..w[1]])
+            .collect()
+    }
+
+    /// The delay-and-sum of frame `f` (its transmits only), if `f < n_frames()`.
+    pub fn frame_das(&self, f: usize) -> Option<&Das> {
+        self.frames.get(f)
+    }
+
     /// Allocate the workspace for this operator.
     pub fn workspace(&self) -> Workspace {
         let n = self.das.data_len();
@@ -265,8 +395,8 @@ impl BMode {
             cx: vec![zero; n],
             cx_bar: vec![zero; n],
             scratch: vec![zero; n],
-            bf: vec![zero; m],
-            bf_bar: vec![zero; m],
+            bf: vec![zero; m * self.frames.len()],
+            bf_bar: vec![zero; m * self.frames.len()],
             env: vec![0.0; m],
             env_bar: vec![0.0; m],
             db: vec![0.0; m],
@@ -276,106 +406,155 @@ impl BMode {
         }
     }
 
-    fn record_t0(&self, rec: usize) -> f64 {
-        self.das.t0_s[rec / self.n_elements]
+    /// `Err` unless `ws` was made by [`BMode::workspace`] of an operator of this shape.
+    fn check_workspace(&self, ws: &Workspace) -> Result<()> {
+        let (nz, nx) = self.image_shape();
+        let (n, m, f) = (self.das.data_len(), nz * nx, self.frames.len());
+        let ok = ws.cx.len() == n
+            && ws.cx_bar.len() == n
+            && ws.scratch.len() == n
+            && ws.bf.len() == m * f
+            && ws.bf_bar.len() == m * f
+            && [&ws.env, &ws.env_bar, &ws.db, &ws.db_bar]
+                .iter()
+                .all(|v| v.len() == m);
+        if ok {
+            Ok(())
+        } else {
+            Err(SignalError::Invalid(format!(
+                "workspace does not belong to this operator (it holds {} channel samples and {} frame pixels; expected {n} and {f} × {m}): make it with BMode::workspace",
+                ws.cx.len(),
+                ws.bf.len()
+            )))
+        }
     }
 
     /// Forward: `I = B(P)`.
     ///
-    /// # Panics
-    /// If `ch` does not have the shape `B` was built for (a programming error:
-    /// build `B` from the same metadata).
-    pub fn forward(&self, ch: &ChannelData, ws: &mut Workspace) -> Image {
-        assert_eq!(
-            ch.samples.len(),
-            self.das.data_len(),
-            "channel data shape differs from the one B was built for"
-        );
+    /// # Errors
+    /// [`SignalError::Invalid`] if `ch` does not have the shape `B` was built for
+    /// (the message gives both shapes) or `ws` was made for another operator.
+    pub fn forward(&self, ch: &ChannelData, ws: &mut Workspace) -> Result<Image> {
+        let want = self.channel_shape();
+        let got = ch.shape();
+        if got != want || ch.samples.len() != self.das.data_len() {
+            return Err(SignalError::Invalid(format!(
+                "channel data shape [{}, {}, {}] ({} samples) differs from the shape this B-mode operator was built for: expected [{}, {}, {}] ({} samples) [n_transmits, n_elements, n_samples]",
+                got.0,
+                got.1,
+                got.2,
+                ch.samples.len(),
+                want.0,
+                want.1,
+                want.2,
+                self.das.data_len()
+            )));
+        }
+        self.check_workspace(ws)?;
+        ws.has_forward = false;
         let ns = self.das.n_samples;
+        let ne = self.n_elements;
         let fs = self.das.fs_hz;
-        // 1–2. gain and demodulation, per record.
+        // 1–2. gain and demodulation, per record, into frame-grouped order.
         let gain = self.gain.as_deref();
-        ws.cx
-            .par_chunks_mut(ns)
-            .zip(ws.scratch.par_chunks_mut(ns))
-            .enumerate()
-            .for_each_init(
-                || {
-                    (
-                        vec![0.0; ns],
-                        vec![0.0; ns],
-                        self.analytic
-                            .as_ref()
-                            .map(|a| vec![Complex64::new(0.0, 0.0); a.scratch_len()]),
-                    )
-                },
-                |(re, im, fsc), (rec, (out, _))| {
-                    let src = &ch.samples[rec * ns..(rec + 1) * ns];
-                    let t = rec / self.n_elements;
-                    match gain {
-                        Some(g) => {
-                            for (k, v) in re.iter_mut().enumerate() {
-                                *v = src[k] * g[t * ns + k];
-                            }
+        ws.cx.par_chunks_mut(ns).enumerate().for_each_init(
+            || {
+                (
+                    vec![0.0; ns],
+                    vec![0.0; ns],
+                    self.analytic
+                        .as_ref()
+                        .map(|a| vec![Complex64::new(0.0, 0.0); a.scratch_len()]),
+                )
+            },
+            |(re, im, fsc), (pos, out)| {
+                let t = self.order[pos / ne];
+                let rec = t * ne + pos % ne;
+                let src = &ch.samples[rec * ns..(rec + 1) * ns];
+                match gain {
+                    Some(g) => {
+                        for (k, v) in re.iter_mut().enumerate() {
+                            *v = src[k] * g[t * ns + k];
                         }
-                        None => re.copy_from_slice(src),
                     }
-                    if let Some(d) = &self.demod {
-                        let t0 = self.record_t0(rec);
-                        let w = 2.0 * core::f64::consts::PI * d.fc;
-                        for (n, v) in re.iter_mut().enumerate() {
-                            let (s, c) = (w * (t0 + n as f64 / fs)).sin_cos();
-                            im[n] = -*v * s;
-                            *v *= c;
-                        }
-                        d.lowpass.filtfilt_in_place(re);
-                        d.lowpass.filtfilt_in_place(im);
-                        for n in 0..ns {
-                            out[n] = Complex64::new(2.0 * re[n], 2.0 * im[n]);
-                        }
-                    } else if let (Some(a), Some(sc)) = (&self.analytic, fsc.as_mut()) {
-                        a.forward(re, out, sc);
+                    None => re.copy_from_slice(src),
+                }
+                if let Some(d) = &self.demod {
+                    let t0 = self.das.t0_s[t];
+                    let w = 2.0 * core::f64::consts::PI * d.fc;
+                    for (n, v) in re.iter_mut().enumerate() {
+                        let (s, c) = (w * (t0 + n as f64 / fs)).sin_cos();
+                        im[n] = -*v * s;
+                        *v *= c;
                     }
-                },
-            );
-        // 3. delay-and-sum.
-        self.das.forward(&ws.cx, &mut ws.bf);
-        // 4. envelope, log, clip.
-        post::envelope(&ws.bf, &mut ws.env);
-        ws.argmax = post::log_compress(&ws.env, &mut ws.db);
+                    d.lowpass.filtfilt_in_place(re);
+                    d.lowpass.filtfilt_in_place(im);
+                    for n in 0..ns {
+                        out[n] = Complex64::new(2.0 * re[n], 2.0 * im[n]);
+                    }
+                } else if let (Some(a), Some(sc)) = (&self.analytic, fsc.as_mut()) {
+                    a.forward(re, out, sc);
+                }
+            },
+        );
+        // 3. delay-and-sum, coherent within each frame.
         let (nz, nx) = self.image_shape();
-        let mut data = vec![0.0; nz * nx];
+        let npix = nz * nx;
+        let rec_len = ne * ns;
+        for (f, das) in self.frames.iter().enumerate() {
+            let (a, b) = (
+                self.frame_start[f] * rec_len,
+                self.frame_start[f + 1] * rec_len,
+            );
+            das.forward(&ws.cx[a..b], &mut ws.bf[f * npix..(f + 1) * npix]);
+        }
+        // 4. envelope per frame, mean over frames, log, clip.
+        self.mean_envelope(ws);
+        ws.argmax = post::log_compress(&ws.env, &mut ws.db);
+        let mut data = vec![0.0; npix];
         post::clip_dynamic_range(&ws.db, self.settings.dynamic_range_db, &mut data);
         ws.has_forward = true;
-        Image {
+        Ok(Image {
             nz,
             nx,
             x_m: self.das.x_m.clone(),
             z_m: self.das.z_m.clone(),
             data,
+        })
+    }
+
+    /// `env = (1/F) Σ_f |bf_f|` (for one frame exactly `|bf|`).
+    fn mean_envelope(&self, ws: &mut Workspace) {
+        let nf = self.frames.len();
+        post::envelope(&ws.bf[..ws.env.len()], &mut ws.env);
+        if nf > 1 {
+            let npix = ws.env.len();
+            let inv = 1.0 / nf as f64;
+            ws.env.par_iter_mut().enumerate().for_each(|(p, e)| {
+                for f in 1..nf {
+                    *e += ws.bf[f * npix + p].norm();
+                }
+                *e *= inv;
+            });
         }
     }
 
-    /// VJP: `∂L/∂P = Bᵀ(∂L/∂I)` at the point of the last [`BMode::forward`] on `ws`.
-    /// `d_image` is `[nz, nx]`; the result has the layout of `ChannelData::samples`.
-    ///
-    /// # Panics
-    /// If no forward pass was run on `ws`, or `d_image` has the wrong length.
-    pub fn vjp(&self, ws: &mut Workspace, d_image: &[f64]) -> Vec<f64> {
-        let mut out = vec![0.0; self.das.data_len()];
-        self.vjp_into(ws, d_image, &mut out);
-        out
-    }
-
-    /// [`BMode::vjp`] writing into a caller-provided buffer (allocation-free).
-    pub fn vjp_into(&self, ws: &mut Workspace, d_image: &[f64], d_channels: &mut [f64]) {
-        assert!(
-            ws.has_forward,
-            "BMode::vjp needs a forward pass on this workspace first"
-        );
+    /// Pull `d_image` back to `ws.bf_bar` (`[n_frames, nz, nx]`), checking lengths.
+    fn image_to_bf_bar(&self, ws: &mut Workspace, d_image: &[f64], who: &str) -> Result<()> {
+        if !ws.has_forward {
+            return Err(SignalError::Invalid(format!(
+                "{who} needs a successful BMode::forward on this workspace first"
+            )));
+        }
+        self.check_workspace(ws)?;
         let (nz, nx) = self.image_shape();
-        assert_eq!(d_image.len(), nz * nx, "d_image length");
-        assert_eq!(d_channels.len(), self.das.data_len(), "d_channels length");
+        if d_image.len() != nz * nx {
+            return Err(SignalError::Invalid(format!(
+                "{who}: d_image has {} values, expected nz × nx = {nz} × {nx} = {}",
+                d_image.len(),
+                nz * nx
+            )));
+        }
         post::clip_dynamic_range_vjp(
             &ws.db,
             self.settings.dynamic_range_db,
@@ -383,13 +562,85 @@ impl BMode {
             &mut ws.db_bar,
         );
         post::log_compress_vjp(&ws.env, ws.argmax, &ws.db_bar, &mut ws.env_bar);
-        post::envelope_vjp(&ws.bf, &ws.env_bar, &mut ws.bf_bar);
-        self.das.vjp(&ws.bf_bar, &mut ws.cx_bar, &mut ws.scratch);
+        let nf = self.frames.len();
+        let npix = nz * nx;
+        if nf == 1 {
+            post::envelope_vjp(&ws.bf, &ws.env_bar, &mut ws.bf_bar);
+        } else {
+            // E = (1/F) Σ_f |u_f|  ⇒  ū_f = (Ē/F)·u_f/|u_f|.
+            let inv = 1.0 / nf as f64;
+            let (bf, env_bar) = (&ws.bf, &ws.env_bar);
+            ws.bf_bar
+                .par_chunks_mut(npix)
+                .zip(bf.par_chunks(npix))
+                .for_each(|(ub, u)| {
+                    for ((b, v), &g) in ub.iter_mut().zip(u).zip(env_bar) {
+                        let n = v.norm();
+                        *b = if n > 0.0 {
+                            *v * (g * inv / n)
+                        } else {
+                            Complex64::new(0.0, 0.0)
+                        };
+                    }
+                });
+        }
+        Ok(())
+    }
+
+    /// VJP: `∂L/∂P = Bᵀ(∂L/∂I)` at the point of the last [`BMode::forward`] on `ws`.
+    /// `d_image` is `[nz, nx]`; the result has the layout of `ChannelData::samples`.
+    ///
+    /// # Errors
+    /// [`SignalError::Invalid`] if no successful forward pass was run on `ws`, or
+    /// `d_image` does not have `nz · nx` values.
+    pub fn vjp(&self, ws: &mut Workspace, d_image: &[f64]) -> Result<Vec<f64>> {
+        let mut out = vec![0.0; self.das.data_len()];
+        self.vjp_into(ws, d_image, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`BMode::vjp`] writing into a caller-provided buffer (allocation-free apart
+    /// from per-thread record buffers); `d_channels` must have the length of
+    /// `ChannelData::samples`.
+    pub fn vjp_into(
+        &self,
+        ws: &mut Workspace,
+        d_image: &[f64],
+        d_channels: &mut [f64],
+    ) -> Result<()> {
+        check_len(
+            "BMode::vjp_into: d_channels",
+            self.das.data_len(),
+            d_channels.len(),
+        )?;
+        self.image_to_bf_bar(ws, d_image, "BMode::vjp")?;
+        let (nz, nx) = self.image_shape();
+        let npix = nz * nx;
         let ns = self.das.n_samples;
+        let ne = self.n_elements;
+        let rec_len = ne * ns;
+        for (f, das) in self.frames.iter().enumerate() {
+            let (a, b) = (
+                self.frame_start[f] * rec_len,
+                self.frame_start[f + 1] * rec_len,
+            );
+            das.vjp(
+                &ws.bf_bar[f * npix..(f + 1) * npix],
+                &mut ws.cx_bar[a..b],
+                &mut ws.scratch[a..b],
+            );
+        }
+        // Back from frame-grouped order to the channel data's transmit order
+        // (scratch is free again).
+        let (cx_bar, scratch) = (&ws.cx_bar, &mut ws.scratch);
+        for (g, &t) in self.order.iter().enumerate() {
+            scratch[t * rec_len..(t + 1) * rec_len]
+                .copy_from_slice(&cx_bar[g * rec_len..(g + 1) * rec_len]);
+        }
         let gain = self.gain.as_deref();
         d_channels
             .par_chunks_mut(ns)
-            .zip(ws.cx_bar.par_chunks_mut(ns))
+            .zip(scratch.par_chunks_mut(ns))
             .enumerate()
             .for_each_init(
                 || {
@@ -402,37 +653,46 @@ impl BMode {
                     )
                 },
                 |(re, im, fsc), (rec, (dst, cb))| {
+                    let t = rec / ne;
                     if let Some(d) = &self.demod {
-                        d.vjp(cb, self.record_t0(rec), re, im, dst);
+                        d.vjp(cb, self.das.t0_s[t], re, im, dst);
                     } else if let (Some(a), Some(sc)) = (&self.analytic, fsc.as_mut()) {
                         a.vjp(cb, dst, sc);
                     }
                     if let Some(g) = gain {
-                        let t = rec / self.n_elements;
                         for (k, v) in dst.iter_mut().enumerate() {
                             *v *= g[t * ns + k];
                         }
                     }
                 },
             );
+        Ok(())
     }
 
     /// Gradient of `L` with respect to the beamforming sound speed and pitch at the
     /// last forward point, given `∂L/∂I` (uses the same chain down to the
-    /// beamformed image, then [`Das::calibration_vjp`]).
-    pub fn calibration_vjp(&self, ws: &mut Workspace, d_image: &[f64]) -> CalibrationGrad {
-        assert!(
-            ws.has_forward,
-            "BMode::calibration_vjp needs a forward pass first"
-        );
-        post::clip_dynamic_range_vjp(
-            &ws.db,
-            self.settings.dynamic_range_db,
-            d_image,
-            &mut ws.db_bar,
-        );
-        post::log_compress_vjp(&ws.env, ws.argmax, &ws.db_bar, &mut ws.env_bar);
-        post::envelope_vjp(&ws.bf, &ws.env_bar, &mut ws.bf_bar);
-        self.das.calibration_vjp(&ws.cx, &ws.bf_bar)
+    /// beamformed images, then [`Das::calibration_vjp`] per frame, summed).
+    ///
+    /// # Errors
+    /// As [`BMode::vjp`].
+    pub fn calibration_vjp(&self, ws: &mut Workspace, d_image: &[f64]) -> Result<CalibrationGrad> {
+        self.image_to_bf_bar(ws, d_image, "BMode::calibration_vjp")?;
+        let (nz, nx) = self.image_shape();
+        let npix = nz * nx;
+        let rec_len = self.n_elements * self.das.n_samples;
+        let mut total = CalibrationGrad {
+            d_sound_speed: 0.0,
+            d_pitch: 0.0,
+        };
+        for (f, das) in self.frames.iter().enumerate() {
+            let (a, b) = (
+                self.frame_start[f] * rec_len,
+                self.frame_start[f + 1] * rec_len,
+            );
+            let g = das.calibration_vjp(&ws.cx[a..b], &ws.bf_bar[f * npix..(f + 1) * npix]);
+            total.d_sound_speed += g.d_sound_speed;
+            total.d_pitch += g.d_pitch;
+        }
+        Ok(total)
     }
 }

@@ -9,6 +9,10 @@ use serde::{Deserialize, Serialize};
 /// The format tag of CONTRACT §2.
 pub const CHANNELS_FORMAT: &str = "usray-channels/1";
 
+/// The key on a transmit that names its acquisition (frame); see
+/// [`ChannelMeta::frames`].
+pub const FRAME_KEY: &str = "frame";
+
 /// Probe description carried by channel data (CONTRACT §2 `probe`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ProbeMeta {
@@ -64,6 +68,67 @@ pub struct ChannelMeta {
 }
 
 impl ChannelMeta {
+    /// The acquisitions (frames) the transmits belong to, as groups of transmit
+    /// indices: one group per distinct `frame` label, in increasing label order,
+    /// transmits in file order within a group.
+    ///
+    /// The `frame` key (a non-negative integer on each entry of `transmits`, an
+    /// extension allowed by CONTRACT §2's "extra keys") says which acquisition a
+    /// transmit belongs to: transmits of one frame image the same (static) object
+    /// and are compounded coherently; different frames (e.g. successive
+    /// acquisitions of a moving object) are not. When no transmit carries `frame`,
+    /// all transmits form one frame. Either every transmit carries it or none does.
+    ///
+    /// ```
+    /// let m: usray_signal::ChannelMeta = serde_json::from_value(serde_json::json!({
+    ///     "format": "usray-channels/1", "sampling_frequency_hz": 20e6, "t0_s": 0.0,
+    ///     "sound_speed_m_s": 1540.0, "center_frequency_hz": 5e6,
+    ///     "probe": {"kind": "linear", "n_elements": 8, "pitch_m": 0.3e-3, "element_width_m": 0.27e-3},
+    ///     "transmits": [
+    ///         {"kind": "plane_wave", "angle_rad": -0.1, "frame": 1},
+    ///         {"kind": "plane_wave", "angle_rad": 0.1, "frame": 0},
+    ///         {"kind": "plane_wave", "angle_rad": 0.0, "frame": 1}]
+    /// })).unwrap();
+    /// assert_eq!(m.frames().unwrap(), vec![vec![1], vec![0, 2]]);
+    /// ```
+    pub fn frames(&self) -> Result<Vec<Vec<usize>>, String> {
+        let n_tagged = self
+            .transmits
+            .iter()
+            .filter(|t| t.extra.contains_key(FRAME_KEY))
+            .count();
+        if n_tagged == 0 {
+            return Ok(vec![(0..self.transmits.len()).collect()]);
+        }
+        let mut labelled = Vec::with_capacity(self.transmits.len());
+        for (i, t) in self.transmits.iter().enumerate() {
+            let label = match t.extra.get(FRAME_KEY) {
+                None => {
+                    return Err(format!(
+                        "transmits[{i}] has no `{FRAME_KEY}` key but {n_tagged} other transmit(s) do: either every transmit carries `{FRAME_KEY}` or none does"
+                    ))
+                }
+                Some(v) => v.as_u64().ok_or_else(|| {
+                    format!("transmits[{i}].{FRAME_KEY} is {v}; a non-negative integer is required")
+                })?,
+            };
+            labelled.push((label, i));
+        }
+        labelled.sort(); // stable by (label, index)
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        let mut last = None;
+        for (label, i) in labelled {
+            if last != Some(label) {
+                groups.push(Vec::new());
+                last = Some(label);
+            }
+            if let Some(g) = groups.last_mut() {
+                g.push(i);
+            }
+        }
+        Ok(groups)
+    }
+
     /// Time of sample 0 for transmit `tx`, seconds: the transmit's own `t0_s` if
     /// it has one, else the global one.
     pub fn t0_for(&self, tx: usize) -> f64 {
@@ -86,6 +151,10 @@ pub struct ChannelData {
 }
 
 impl ChannelData {
+    /// `(n_transmits, n_elements, n_samples)` as the metadata and `n_samples` say.
+    pub fn shape(&self) -> (usize, usize, usize) {
+        (self.n_transmits(), self.n_elements(), self.n_samples)
+    }
     /// Number of transmits (`meta.transmits.len()`).
     pub fn n_transmits(&self) -> usize {
         self.meta.transmits.len()
@@ -95,9 +164,30 @@ impl ChannelData {
         self.meta.probe.n_elements
     }
     /// The record of one (transmit, element) pair.
+    ///
+    /// # Panics
+    /// If `tx` or `el` is out of range (like slice indexing); [`ChannelData::get_record`]
+    /// is the non-panicking form.
     pub fn record(&self, tx: usize, el: usize) -> &[f64] {
+        self.get_record(tx, el).unwrap_or_else(|| {
+            panic!(
+                "record ({tx}, {el}) out of range: shape [{}, {}, {}] with {} samples",
+                self.n_transmits(),
+                self.n_elements(),
+                self.n_samples,
+                self.samples.len()
+            )
+        })
+    }
+
+    /// The record of one (transmit, element) pair, or `None` if `tx` or `el` is
+    /// out of range or `samples` is shorter than the shape says.
+    pub fn get_record(&self, tx: usize, el: usize) -> Option<&[f64]> {
+        if tx >= self.n_transmits() || el >= self.n_elements() {
+            return None;
+        }
         let n = self.n_samples;
-        let start = (tx * self.n_elements() + el) * n;
-        &self.samples[start..start + n]
+        let start = (tx * self.n_elements() + el).checked_mul(n)?;
+        self.samples.get(start..start.checked_add(n)?)
     }
 }

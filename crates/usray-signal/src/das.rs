@@ -196,6 +196,9 @@ impl Das {
                 "F-number {f_number} (must be ≥ 0)"
             )));
         }
+        if meta.probe.n_elements == 0 {
+            return Err(SignalError::Invalid("probe with 0 elements".into()));
+        }
         if x_m.is_empty() || z_m.is_empty() {
             return Err(SignalError::Invalid("empty pixel grid".into()));
         }
@@ -493,6 +496,9 @@ impl Das {
     /// the rotation (`∂ exp(iωτ)/∂τ = iω exp(iωτ)`):
     /// `∂τ/∂c = −τ/c`, `∂τ/∂pitch = −(x − x_e)/(c·r)·(e − (N−1)/2)`. The F-number
     /// aperture mask is held fixed (a discontinuity without a derivative).
+    ///
+    /// # Panics
+    /// If the buffer lengths disagree with the configuration.
     pub fn calibration_vjp<S: Sample>(&self, data: &[S], out_bar: &[S]) -> CalibrationGrad {
         self.check(data.len(), out_bar.len());
         let nx = self.x_m.len();

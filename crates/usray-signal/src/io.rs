@@ -90,7 +90,13 @@ pub fn read_npy(path: impl AsRef<Path>) -> Result<NpyArray> {
         .map_err(|e| SignalError::format(path, format!("not a valid NPY file: {e}")))?;
     let fortran = npy.order() == npyz::Order::Fortran;
     let shape: Vec<usize> = npy.shape().iter().map(|&s| s as usize).collect();
-    let n: usize = shape.iter().product();
+    let n = shape
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .filter(|&n| n.checked_mul(8).is_some())
+        .ok_or_else(|| {
+            SignalError::format(path, format!("NPY shape {shape:?} is too large to address"))
+        })?;
     let dtype = npy.dtype();
     let descr = dtype.descr();
     let width = match descr.as_str() {
@@ -287,6 +293,7 @@ fn validate_meta(m: &ChannelMeta) -> std::result::Result<(), String> {
             return Err(format!("transmits[{i}] has a non-finite angle or t0_s"));
         }
     }
+    m.frames()?;
     Ok(())
 }
 

@@ -18,6 +18,30 @@
 //! | [`io`] | channel data and B-mode files, [`write_atomic`] |
 //! | [`mat`] | MATLAB v5 `.mat` reader and Verasonics plane-wave import |
 //!
+//! ## Frames: the `frame` key (extension of CONTRACT §2)
+//!
+//! Each entry of `transmits` may carry an extra key `"frame": k` (a non-negative
+//! integer) naming the acquisition the transmit belongs to. [`BMode`] sums the
+//! transmits of one frame coherently (delay-and-sum), takes the envelope of each
+//! frame, and averages the envelopes over frames (incoherent mean) before log
+//! compression; its VJP differentiates exactly that. Frames are for acquisitions
+//! that must not be summed coherently, e.g. successive shots of a moving object:
+//! [`import_mat`] tags the frames of a Verasonics `RF(time, element, frame)` array
+//! `frame` 0, 1, …, so `PWI_disk.mat` (a rotating disk, 32 shots) is imaged as 32
+//! frames. Either every transmit carries `frame` or none does
+//! ([`ChannelMeta::frames`] and [`read_channels`] reject a mix or a non-integer);
+//! data without `frame` keys is one frame, all transmits compounded coherently.
+//!
+//! ## Errors, not panics
+//!
+//! Every function that takes user data returns [`Result`]: in particular
+//! [`BMode::forward`], [`BMode::vjp`], [`BMode::vjp_into`] and
+//! [`BMode::calibration_vjp`] report channel data of another shape than the
+//! operator was built for (both shapes in the message), cotangents of the wrong
+//! length, a workspace of another operator and a VJP before any forward pass. The
+//! low-level [`das::Das`] methods take caller-sized buffers and document their
+//! panics on length mismatches (programming errors); `BMode` checks before calling them.
+//!
 //! ```
 //! use usray_signal::{BMode, ChannelData, ChannelMeta, ImagingSettings};
 //! // One point scatterer at (0, 10 mm), 0° plane wave, 32 elements, 40 MHz sampling.
@@ -41,12 +65,12 @@
 //! s.f_number = 0.0;
 //! let b = BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
 //! let mut ws = b.workspace();
-//! let img = b.forward(&ch, &mut ws);
+//! let img = b.forward(&ch, &mut ws).unwrap();
 //! // The brightest pixel is the scatterer.
 //! let k = usray_signal::post::argmax(&img.data);
 //! assert!((img.x_m[k % img.nx]).abs() < 0.15e-3 && (img.z_m[k / img.nx] - 0.01).abs() < 0.15e-3);
 //! // Gradient of a loss (sum of the image) with respect to the channel data.
-//! let g = b.vjp(&mut ws, &vec![1.0; img.data.len()]);
+//! let g = b.vjp(&mut ws, &vec![1.0; img.data.len()]).unwrap();
 //! assert_eq!(g.len(), ch.samples.len());
 //! ```
 pub mod bmode;

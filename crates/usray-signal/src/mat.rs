@@ -168,7 +168,19 @@ fn parse_matrix(body: &[u8]) -> R<(String, MatValue)> {
         .collect();
     let (_, name) = c.element()?;
     let name = String::from_utf8_lossy(name).into_owned();
-    let count: usize = dims.iter().product();
+    let count = dims
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .ok_or_else(|| format!("array `{name}` has dimensions {dims:?}: too many elements"))?;
+    // Every element takes at least one byte of the remaining data (cells and struct
+    // fields at least an 8-byte tag), so a larger count is a corrupt header; checking
+    // it here keeps a bad file from requesting a huge allocation.
+    if count > body.len().saturating_sub(c.p).max(1) * 8 {
+        return Err(format!(
+            "array `{name}` claims dimensions {dims:?} ({count} elements) but only {} bytes follow",
+            body.len().saturating_sub(c.p)
+        ));
+    }
     let value = match class {
         1 => {
             let mut cells = Vec::with_capacity(count);
@@ -302,7 +314,10 @@ fn get<'a>(vars: &'a MatFile, name: &str) -> Option<&'a MatValue> {
 /// struct `param` with scalar fields `fs` (Hz), `fc` (Hz), `c` (m/s), `t0` (s, time
 /// of sample 0 after transmission), `pitch` (m), `width` (m), `Nelements`,
 /// `TXdelay` (s, one per element) and a numeric `RF` `(time, element[, frame])`.
-/// Each frame becomes a transmit. `TXdelay` must be all zero (unsteered 0° plane
+/// Each frame becomes a transmit tagged `"frame": k` (k = 0-based frame index;
+/// see [`ChannelMeta::frames`](crate::ChannelMeta::frames)): the frames are separate
+/// acquisitions, imaged one by one and averaged incoherently by
+/// [`BMode`](crate::BMode), never summed coherently. `TXdelay` must be all zero (unsteered 0° plane
 /// wave: the wave passes the array centre when every element fires, so
 /// `t0_s = param.t0`, CONTRACT §1); anything else is refused rather than guessed.
 /// `param.bandwidth` (%) is kept as `probe.bandwidth_percent`.
@@ -438,12 +453,19 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
             "clock": "TXdelay all zero: t0_s = param.t0",
         }),
     );
+    // Each frame of `RF` is a separate acquisition (e.g. PWI_disk.mat: a rotating
+    // disk, 100 µs apart), so each transmit is tagged with its own `frame`: BMode
+    // then averages envelopes across frames instead of summing them coherently.
     let transmits = (0..nf)
-        .map(|_| TransmitMeta {
-            kind: "plane_wave".into(),
-            angle_rad: 0.0,
-            t0_s: None,
-            extra: serde_json::Map::new(),
+        .map(|k| {
+            let mut extra = serde_json::Map::new();
+            extra.insert(crate::channels::FRAME_KEY.into(), k.into());
+            TransmitMeta {
+                kind: "plane_wave".into(),
+                angle_rad: 0.0,
+                t0_s: None,
+                extra,
+            }
         })
         .collect();
     Ok(ChannelData {

@@ -308,8 +308,8 @@ fn bmode_is_independent_of_thread_count() {
                 .unwrap();
             pool.install(|| {
                 let mut ws = b.workspace();
-                let img = b.forward(&ch, &mut ws);
-                (img.data, b.vjp(&mut ws, &w))
+                let img = b.forward(&ch, &mut ws).unwrap();
+                (img.data, b.vjp(&mut ws, &w).unwrap())
             })
         };
         assert_eq!(run(1), run(3));

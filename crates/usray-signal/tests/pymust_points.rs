@@ -63,7 +63,7 @@ pub fn compare(name: &str, demod: Demod) -> Option<f64> {
         )
     );
     let mut ws = b.workspace();
-    let _ = b.forward(&ch, &mut ws);
+    b.forward(&ch, &mut ws).unwrap();
     let (mut a, mut r) = (vec![], vec![]);
     for (u, &p) in ws.db().iter().zip(&refdb) {
         if p > -40.0 {

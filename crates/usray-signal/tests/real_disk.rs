@@ -45,6 +45,91 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
+/// Fit the disk in an envelope image `mean` (`[z.len(), x.len()]`): smooth with a
+/// 5×5 box, threshold midway between inside (< 6 mm from the centre) and outside
+/// (> 13 mm) medians, fit a circle to the boundary pixels (6–14 mm); three rounds,
+/// re-centring each time. Returns (radius m, inside/outside contrast dB).
+fn fit_disk(mean: &[f64], x: &[f64], z: &[f64]) -> (f64, f64) {
+    let (nx, nz) = (x.len(), z.len());
+    // Smooth with a 5×5 box (1 mm).
+    let mut sm = vec![0.0; nx * nz];
+    for iz in 0..nz {
+        for ix in 0..nx {
+            let (mut s, mut n) = (0.0, 0.0);
+            for dz in -2i64..=2 {
+                for dx in -2i64..=2 {
+                    let (a, b) = (iz as i64 + dz, ix as i64 + dx);
+                    if a >= 0 && b >= 0 && (a as usize) < nz && (b as usize) < nx {
+                        s += mean[a as usize * nx + b as usize];
+                        n += 1.0;
+                    }
+                }
+            }
+            sm[iz * nx + ix] = s / n;
+        }
+    }
+    // Centre: centroid of the pixels above the mean level; then inside/outside levels.
+    let avg = sm.iter().sum::<f64>() / sm.len() as f64;
+    let (mut cx, mut cz, mut w) = (0.0, 0.0, 0.0);
+    for iz in 0..nz {
+        for ix in 0..nx {
+            if sm[iz * nx + ix] > avg {
+                cx += x[ix];
+                cz += z[iz];
+                w += 1.0;
+            }
+        }
+    }
+    let (mut xc, mut zc) = (cx / w, cz / w);
+    let mut radius = 0.0;
+    let mut contrast = 0.0;
+    for _ in 0..3 {
+        let r_of = |ix: usize, iz: usize| ((x[ix] - xc).powi(2) + (z[iz] - zc).powi(2)).sqrt();
+        let (mut inside, mut outside) = (vec![], vec![]);
+        for iz in 0..nz {
+            for ix in 0..nx {
+                let r = r_of(ix, iz);
+                if r < 6e-3 {
+                    inside.push(sm[iz * nx + ix]);
+                } else if r > 13e-3 {
+                    outside.push(sm[iz * nx + ix]);
+                }
+            }
+        }
+        let (lin, lout) = (median(inside), median(outside));
+        let thr = 0.5 * (lin + lout);
+        // Boundary: above-threshold pixels with a below-threshold 4-neighbour, in 6–14 mm.
+        let above = |ix: usize, iz: usize| sm[iz * nx + ix] > thr;
+        let mut pts = vec![];
+        for iz in 1..nz - 1 {
+            for ix in 1..nx - 1 {
+                let r = r_of(ix, iz);
+                if above(ix, iz)
+                    && (r > 6e-3 && r < 14e-3)
+                    && (!above(ix - 1, iz)
+                        || !above(ix + 1, iz)
+                        || !above(ix, iz - 1)
+                        || !above(ix, iz + 1))
+                {
+                    pts.push((x[ix], z[iz]));
+                }
+            }
+        }
+        let (a, b, r) = fit_circle(&pts);
+        eprintln!(
+            "inside {lin:.1}, outside {lout:.1} ({:.1} dB contrast); {} boundary px; circle centre ({:.2}, {:.2}) mm, radius {:.3} mm",
+            20.0 * (lin / lout).log10(),
+            pts.len(),
+            a * 1e3,
+            b * 1e3,
+            r * 1e3
+        );
+        (xc, zc, radius) = (a, b, r);
+        contrast = 20.0 * (lin / lout).log10();
+    }
+    (radius, contrast)
+}
+
 #[test]
 fn pwi_disk_radius() {
     let Some(path) = usray_testdata::data_file("real/PWI_disk.mat") else {
@@ -96,85 +181,57 @@ fn pwi_disk_radius() {
             *m += v.norm() / 32.0;
         }
     }
-    // Smooth with a 5×5 box (1 mm).
-    let mut sm = vec![0.0; nx * nz];
-    for iz in 0..nz {
-        for ix in 0..nx {
-            let (mut s, mut n) = (0.0, 0.0);
-            for dz in -2i64..=2 {
-                for dx in -2i64..=2 {
-                    let (a, b) = (iz as i64 + dz, ix as i64 + dx);
-                    if a >= 0 && b >= 0 && (a as usize) < nz && (b as usize) < nx {
-                        s += mean[a as usize * nx + b as usize];
-                        n += 1.0;
-                    }
-                }
-            }
-            sm[iz * nx + ix] = s / n;
-        }
-    }
-    // Centre: centroid of the pixels above the mean level; then inside/outside levels.
-    let avg = sm.iter().sum::<f64>() / sm.len() as f64;
-    let (mut cx, mut cz, mut w) = (0.0, 0.0, 0.0);
-    for iz in 0..nz {
-        for ix in 0..nx {
-            if sm[iz * nx + ix] > avg {
-                cx += x[ix];
-                cz += z[iz];
-                w += 1.0;
-            }
-        }
-    }
-    let (mut xc, mut zc) = (cx / w, cz / w);
-    let mut radius = 0.0;
-    for _ in 0..3 {
-        let r_of = |ix: usize, iz: usize| ((x[ix] - xc).powi(2) + (z[iz] - zc).powi(2)).sqrt();
-        let (mut inside, mut outside) = (vec![], vec![]);
-        for iz in 0..nz {
-            for ix in 0..nx {
-                let r = r_of(ix, iz);
-                if r < 6e-3 {
-                    inside.push(sm[iz * nx + ix]);
-                } else if r > 13e-3 {
-                    outside.push(sm[iz * nx + ix]);
-                }
-            }
-        }
-        let (lin, lout) = (median(inside), median(outside));
-        let thr = 0.5 * (lin + lout);
-        // Boundary: above-threshold pixels with a below-threshold 4-neighbour, in 6–14 mm.
-        let above = |ix: usize, iz: usize| sm[iz * nx + ix] > thr;
-        let mut pts = vec![];
-        for iz in 1..nz - 1 {
-            for ix in 1..nx - 1 {
-                let r = r_of(ix, iz);
-                if above(ix, iz)
-                    && (r > 6e-3 && r < 14e-3)
-                    && (!above(ix - 1, iz)
-                        || !above(ix + 1, iz)
-                        || !above(ix, iz - 1)
-                        || !above(ix, iz + 1))
-                {
-                    pts.push((x[ix], z[iz]));
-                }
-            }
-        }
-        let (a, b, r) = fit_circle(&pts);
-        eprintln!(
-            "inside {lin:.1}, outside {lout:.1} ({:.1} dB contrast); {} boundary px; circle centre ({:.2}, {:.2}) mm, radius {:.3} mm",
-            20.0 * (lin / lout).log10(),
-            pts.len(),
-            a * 1e3,
-            b * 1e3,
-            r * 1e3
-        );
-        (xc, zc, radius) = (a, b, r);
-    }
+    let (radius, contrast) = fit_disk(&mean, &x, &z);
+    eprintln!(
+        "hand-made frame average: radius {:.3} mm, contrast {contrast:.1} dB",
+        radius * 1e3
+    );
     assert!(
         (radius - 10e-3).abs() <= 0.3e-3,
         "fitted radius {} mm",
         radius * 1e3
     );
+}
+
+/// The user's path: `import` (each of the 32 frames is a transmit tagged with its
+/// `frame`), write and read back CONTRACT §2 files, then the ordinary `BMode`
+/// (no hand-made averaging): the transmits of each frame are compounded
+/// coherently, the 32 frames incoherently (README pitfall 5). The disk must come
+/// out with radius 10 mm ± 0.3 mm and more than 15 dB disk/background contrast.
+/// With `USRAY_WRITE_PNG=DIR` the B-mode is also written to `DIR/pwi_disk_bmode.png`.
+#[test]
+fn pwi_disk_import_then_bmode() {
+    let Some(path) = usray_testdata::data_file("real/PWI_disk.mat") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let stem = dir.path().join("PWI_disk");
+    usray_signal::write_channels(&stem, &import_mat(&path).unwrap()).unwrap();
+    let ch = usray_signal::read_channels(stem.with_extension("json")).unwrap();
+    let frames = ch.meta.frames().unwrap();
+    assert_eq!(frames.len(), 32);
+    assert!(frames.iter().enumerate().all(|(k, g)| g == &vec![k]));
+    let mut s = usray_signal::ImagingSettings::new([-15e-3, 15e-3], [5e-3, 40e-3], 0.2e-3);
+    s.f_number = 1.0;
+    let b = usray_signal::BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
+    assert_eq!(b.n_frames(), 32);
+    let mut ws = b.workspace();
+    let img = b.forward(&ch, &mut ws).unwrap();
+    if let Some(d) = std::env::var_os("USRAY_WRITE_PNG") {
+        img.write_png(std::path::Path::new(&d).join("pwi_disk_bmode.png"))
+            .unwrap();
+    }
+    let (radius, contrast) = fit_disk(ws.envelope(), &img.x_m, &img.z_m);
+    eprintln!(
+        "import + BMode (32 frames): radius {:.3} mm, contrast {contrast:.1} dB",
+        radius * 1e3
+    );
+    assert!(
+        (radius - 10e-3).abs() <= 0.3e-3,
+        "fitted radius {} mm",
+        radius * 1e3
+    );
+    assert!(contrast > 15.0, "disk/background contrast {contrast} dB");
 }
 
 /// Full-matrix capture `real/ArraySteelPins.mat` summed to a 0° plane wave (pitch
@@ -208,7 +265,7 @@ fn steel_pins_fmc_as_plane_wave() {
     s.f_number = 0.0;
     let b = usray_signal::BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
     let mut ws = b.workspace();
-    let img = b.forward(&ch, &mut ws);
+    let img = b.forward(&ch, &mut ws).unwrap();
     let env = ws.envelope().to_vec();
     let k1 = usray_signal::post::argmax(&env);
     let p1 = (img.x_m[k1 % img.nx], img.z_m[k1 / img.nx]);

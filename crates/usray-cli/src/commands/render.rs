@@ -60,7 +60,7 @@ pub fn beamform_to(scene: &Scene, channels: &ChannelData, out: &OutDir) -> Resul
     let op = BMode::new(&settings, &channels.meta, channels.n_samples)
         .context("setting up the beamformer from the scene's [imaging]")?;
     let mut ws = op.workspace();
-    let image = op.forward(channels, &mut ws);
+    let image = op.forward(channels, &mut ws)?;
     image.write_npy(out.path("bmode.npy"))?;
     image.write_png(out.path("bmode.png"))?;
     Ok((image.nz, image.nx))
