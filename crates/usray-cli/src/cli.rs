@@ -100,9 +100,17 @@ pub enum Command {
         /// Comma-separated parameter paths, each optionally `PATH=MIN:MAX`.
         #[arg(long, value_delimiter = ',', required = true)]
         params: Vec<String>,
-        /// Also sweep finite-difference step sizes next to the AD gradient.
+        /// Also sweep finite-difference step sizes next to the AD gradient (central
+        /// differences of the same fixed-seed pipeline, nine steps from 10% of each
+        /// parameter's range down to 1e-5 of it) and plot FD vs AD.
         #[arg(long)]
         fd_sweep: bool,
+        /// Override the scene's `acquisition.rays_per_element`.
+        #[arg(long, value_name = "N")]
+        rays: Option<usize>,
+        /// Override the scene's `acquisition.seed`.
+        #[arg(long)]
+        seed: Option<u64>,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,
@@ -121,6 +129,20 @@ pub enum Command {
         /// Optimiser iterations.
         #[arg(long, default_value_t = 150)]
         iters: usize,
+        /// Draw fresh random numbers every iteration (seed + iteration) instead of
+        /// common random numbers: a stochastic gradient.
+        #[arg(long)]
+        resample_seed: bool,
+        /// Split the transmits into this many micro-batches for the gradient replay
+        /// (exact: the parts sum to the full gradient).
+        #[arg(long, value_name = "N", default_value_t = 1)]
+        batches: usize,
+        /// Override the scene's `acquisition.rays_per_element`.
+        #[arg(long, value_name = "N")]
+        rays: Option<usize>,
+        /// Override the scene's `acquisition.seed`.
+        #[arg(long)]
+        seed: Option<u64>,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

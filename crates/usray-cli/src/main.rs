@@ -3,7 +3,6 @@
 mod cli;
 mod commands;
 mod output;
-#[allow(dead_code)] // Used by `fit` and `demo` (issue 5); the allow goes with them.
 mod plots;
 
 use clap::Parser;

@@ -32,10 +32,36 @@
 
 mod adam;
 mod fd;
+mod fit;
 mod loss;
+mod objective;
 mod params;
+mod reference;
 
 pub use adam::{Adam, AdamGroup};
 pub use fd::{fd_sweep, log_steps, FdPoint};
+pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};
 pub use loss::L1L2;
+pub use objective::{grid_shape, Evaluation, Objective, PathReplay, TransportGradient};
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
+pub use reference::load_reference;
+
+/// An error of the calibration layer, with a one-line message.
+#[derive(Debug, thiserror::Error)]
+pub enum OptimError {
+    /// The scene rejected a path or a value.
+    #[error(transparent)]
+    Scene(#[from] usray_transport::SceneError),
+    /// Image formation or data I/O failed.
+    #[error(transparent)]
+    Signal(#[from] usray_signal::SignalError),
+    /// A `--params` entry is malformed.
+    #[error(transparent)]
+    Param(#[from] ParamSpecError),
+    /// The reference cannot be used on this scene.
+    #[error("reference: {0}")]
+    Reference(String),
+    /// A micro-batch is malformed.
+    #[error("micro-batch: {0}")]
+    Batch(String),
+}

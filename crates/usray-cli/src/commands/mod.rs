@@ -1,6 +1,10 @@
 //! One module per subcommand.
 
 mod beamform;
+pub mod calib;
+pub mod demo;
+pub mod fit;
+mod grad;
 mod import;
 mod params;
 mod render;
@@ -25,9 +29,39 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
         } => beamform::run(channels, scene, common),
         Command::Import { file, name, common } => import::run(file, name.as_deref(), common),
         Command::Params { scene, common } => params::run(scene, &common.out),
-        Command::Demo { .. } => not_yet("demo", "calibration (issue 5)"),
-        Command::Grad { .. } => not_yet("grad", "end-to-end gradients (issue 5)"),
-        Command::Fit { .. } => not_yet("fit", "calibration (issue 5)"),
+        Command::Demo { common } => demo::run(common),
+        Command::Grad {
+            scene,
+            reference,
+            params,
+            fd_sweep,
+            rays,
+            seed,
+            common,
+        } => grad::run(scene, reference, params, *fd_sweep, *rays, *seed, common),
+        Command::Fit {
+            scene,
+            reference,
+            params,
+            iters,
+            resample_seed,
+            batches,
+            rays,
+            seed,
+            common,
+        } => fit::run(
+            scene,
+            reference,
+            params,
+            &fit::FitArgs {
+                iters: *iters,
+                resample_seed: *resample_seed,
+                batches: *batches,
+                rays: *rays,
+                seed: *seed,
+            },
+            common,
+        ),
         Command::Diagnose { .. } => not_yet("diagnose", "the sim-to-real diagnosis (issue 6)"),
     })?
 }

@@ -1,0 +1,105 @@
+//! `usray fit SCENE --reference REF --params … [--iters N]`.
+
+use super::calib::{build_objective, progress_bar, write_fit_outputs};
+use crate::cli::Common;
+use crate::output::OutDir;
+use anyhow::Result;
+use std::path::Path;
+use usray_optim::{fit, FitOptions, Objective};
+
+/// Settings of `usray fit` beyond the objective.
+pub struct FitArgs {
+    /// Iterations.
+    pub iters: usize,
+    /// Fresh random numbers each iteration.
+    pub resample_seed: bool,
+    /// Transmit micro-batches for the transport replay (1 = none).
+    pub batches: usize,
+    /// Ray override.
+    pub rays: Option<usize>,
+    /// Seed override.
+    pub seed: Option<u64>,
+}
+
+/// Runs the fit and writes its outputs.
+pub fn run(
+    scene: &Path,
+    reference: &Path,
+    params: &[String],
+    args: &FitArgs,
+    common: &Common,
+) -> Result<()> {
+    let mut objective = build_objective(
+        scene,
+        reference,
+        params,
+        args.rays,
+        args.seed,
+        common.threads,
+    )?;
+    anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
+    set_batches(&mut objective, args.batches)?;
+    let options = FitOptions {
+        iters: args.iters,
+        resample_seed: args.resample_seed,
+        ..Default::default()
+    };
+    let out = OutDir::create(&common.out)?;
+    let r = run_fit(&mut objective, &options, &out, common.quiet)?;
+    eprintln!(
+        "usray fit: loss {:.4e} → {:.4e} (×{:.1} lower) in {} iterations, {:.1} s; wrote fit.json, fitted.toml, images and plots to {}",
+        r.history[0].loss,
+        r.final_loss,
+        r.history[0].loss / r.final_loss,
+        r.history.len(),
+        r.seconds,
+        common.out.display()
+    );
+    Ok(())
+}
+
+/// Splits the scene's transmits into `n` contiguous micro-batches.
+pub fn set_batches(objective: &mut Objective, n: usize) -> Result<()> {
+    let n_tx = objective.scene.acquisition.angles_deg.len();
+    anyhow::ensure!(
+        n >= 1 && n <= n_tx,
+        "--batches must lie in 1..={n_tx} (the scene's transmits)"
+    );
+    objective.transmit_batches = if n == 1 {
+        Vec::new()
+    } else {
+        (0..n)
+            .map(|b| (b * n_tx / n..(b + 1) * n_tx / n).collect())
+            .collect()
+    };
+    Ok(())
+}
+
+/// Fits from the scene's current values with a progress bar and writes every
+/// output of a fit.
+pub fn run_fit(
+    objective: &mut Objective,
+    options: &FitOptions,
+    out: &OutDir,
+    quiet: bool,
+) -> Result<usray_optim::FitResult> {
+    let start = objective.initial_physical();
+    let initial = objective.value(&start)?.image.data;
+    let bar = progress_bar(quiet, options.iters as u64, "fit");
+    let result = fit(objective, &start, options, |s| {
+        bar.set_message(format!("loss {:.4e}", s.loss));
+        bar.inc(1);
+    })?;
+    bar.finish_and_clear();
+    let final_image = objective.value(&result.final_params)?.image.data;
+    write_fit_outputs(
+        out,
+        objective,
+        &start,
+        &result,
+        options,
+        &initial,
+        &final_image,
+    )?;
+    Ok(result)
+}

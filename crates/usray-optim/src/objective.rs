@@ -1,0 +1,365 @@
+//! The calibration objective: scene parameters → render → B-mode → image loss, with
+//! its gradient through the whole pipeline (paper §"End-to-end objective",
+//! eq. chain rule `∂L/∂θ = (∂P/∂θ)ᵀ (∂I/∂P)ᵀ ∂L/∂I`).
+//!
+//! One evaluation at physical parameters `θ`:
+//! 1. set `θ` in a copy of the scene, render channel data `P(θ)` in `f64` with the
+//!    objective's fixed [`RenderOptions`] (seed: common random numbers);
+//! 2. form the B-mode `I = B(P)` on the scene's `[imaging]` grid
+//!    ([`usray_signal::BMode`]);
+//! 3. loss `L(I, I_ref)` and `∂L/∂I` (paper eq. `weighted_l1_l2_loss`);
+//! 4. `∂L/∂P = Bᵀ ∂L/∂I` ([`usray_signal::BMode::vjp`], paper eq. `l2_backprop`);
+//! 5. transport part `Σ ∂L/∂P · ∂P/∂θ_j` by path replay with the same random numbers
+//!    ([`TransportGradient`]);
+//! 6. image-formation parts, for parameters the beamformer also reads:
+//!    - the beamformer's sound speed (`imaging.sound_speed_m_s`, or
+//!      `medium.sound_speed_m_s` when the scene has no `imaging.sound_speed_m_s`,
+//!      since the beamformer then assumes the medium's): `+ d_sound_speed` of
+//!      [`usray_signal::BMode::calibration_vjp`];
+//!    - `probe.pitch_m` (element positions of delay-and-sum): `+ d_pitch`;
+//!    - `probe.center_frequency_hz` (IQ demodulation frequency and low-pass
+//!      cut-off): `usray-signal` gives no adjoint for these, so this part is a
+//!      central difference of `L(B_fc(P))` in the demodulation frequency alone with
+//!      the channel data `P` held fixed (two extra B-mode forwards; `B` is smooth
+//!      in `f_c`, step `10⁻⁴ f_c`). [`Evaluation::demod_fc_part`] reports it.
+//!
+//! **Fixed-seed semantics.** The gradient is that of the sampled estimator with
+//! common random numbers: the seed and ray budget are fixed, sampling decisions are
+//! held, and visibility changes (a ray that stops hitting the object) carry no
+//! derivative. Finite differences of the same fixed-seed pipeline
+//! ([`Objective::value`]) are the reference it is checked against.
+
+use crate::loss::L1L2;
+use crate::params::ParamSpec;
+use crate::OptimError;
+use usray_signal::{BMode, ChannelData, Image};
+use usray_transport::{render, RenderOptions, Scene, SceneError};
+
+/// The transport part of the gradient: for each named parameter,
+/// `Σ_samples d_channels · ∂P/∂θ_j` of the fixed-seed render of `scene` under `opts`.
+///
+/// Parameters only the image formation reads contribute 0 here.
+pub trait TransportGradient: Send + Sync {
+    /// `∂L/∂θ_j = Σ d_channels · ∂P/∂θ_j` for each path in `params`.
+    fn channel_gradient(
+        &self,
+        scene: &Scene,
+        params: &[&str],
+        d_channels: &[f64],
+        opts: &RenderOptions,
+    ) -> Result<Vec<f64>, SceneError>;
+}
+
+/// The transport crate's gradient by path replay
+/// (`usray_transport::channel_gradient`, see its docs: forward duals or per-path
+/// reverse tapes, chosen by the library; memory independent of the ray count).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathReplay;
+
+impl TransportGradient for PathReplay {
+    fn channel_gradient(
+        &self,
+        scene: &Scene,
+        params: &[&str],
+        d_channels: &[f64],
+        opts: &RenderOptions,
+    ) -> Result<Vec<f64>, SceneError> {
+        stand_in::channel_gradient(scene, params, d_channels, opts)
+    }
+}
+
+/// Interim transport gradient until `usray_transport::channel_gradient` lands:
+/// one forward-dual replay (`Dual<1>`) of the whole render per parameter, dotted
+/// with `d_channels`. Exact for the fixed-seed estimator except for what the
+/// generic tracer does not carry in `T` (the pulse taps depend on `f_c` in `f64`).
+mod stand_in {
+    use super::*;
+    use usray_ad::Dual;
+    use usray_transport::render_lifted;
+
+    pub fn channel_gradient(
+        scene: &Scene,
+        params: &[&str],
+        d_channels: &[f64],
+        opts: &RenderOptions,
+    ) -> Result<Vec<f64>, SceneError> {
+        let mut out = Vec::with_capacity(params.len());
+        for &p in params {
+            scene.get(p)?;
+            let st = scene.lift::<Dual<1>>(|path, v| {
+                if path == p {
+                    Dual::variable(v, 0)
+                } else {
+                    Dual::constant(v)
+                }
+            })?;
+            let (samples, _, _) = render_lifted(scene, &st, opts);
+            out.push(
+                samples
+                    .iter()
+                    .zip(d_channels)
+                    .map(|(s, g)| s.eps[0] * g)
+                    .sum(),
+            );
+        }
+        Ok(out)
+    }
+}
+
+/// The result of one evaluation of the objective.
+#[derive(Clone, Debug)]
+pub struct Evaluation {
+    /// The loss `L`.
+    pub loss: f64,
+    /// `∂L/∂θ` in physical units, one per parameter (empty for [`Objective::value`]).
+    pub gradient: Vec<f64>,
+    /// The simulated B-mode at `θ`.
+    pub image: Image,
+    /// For each parameter, the part of the gradient from the IQ demodulation
+    /// frequency (non-zero only for `probe.center_frequency_hz`).
+    pub demod_fc_part: Vec<f64>,
+    /// Render wall time, seconds.
+    pub render_seconds: f64,
+}
+
+/// Which part of the image formation a parameter also enters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ImagingRole {
+    None,
+    SoundSpeed,
+    Pitch,
+    CenterFrequency,
+}
+
+/// Scene + reference image + parameters + loss + render options: the function the
+/// fit minimises (see the module docs for the chain rule).
+pub struct Objective {
+    /// The scene; parameter values not being fitted are taken from it.
+    pub scene: Scene,
+    /// The reference B-mode `I_ref`, `[nz, nx]` row-major on the scene's grid.
+    pub reference: Vec<f64>,
+    /// The parameters, in order.
+    pub specs: Vec<ParamSpec>,
+    /// The image loss.
+    pub loss: L1L2,
+    /// Render options (ray count, seed, threads): fixed across evaluations, so
+    /// every evaluation uses common random numbers.
+    pub opts: RenderOptions,
+    /// Transmit micro-batches for the transport replay (see
+    /// [`Objective::value_and_gradient`]); empty = one batch of every transmit.
+    pub transmit_batches: Vec<Vec<usize>>,
+    transport: Box<dyn TransportGradient>,
+    roles: Vec<ImagingRole>,
+}
+
+impl std::fmt::Debug for Objective {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Objective")
+            .field("specs", &self.specs)
+            .field("loss", &self.loss)
+            .field("opts", &self.opts)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Objective {
+    /// An objective on `scene` against `reference` (`[nz, nx]` on the scene's
+    /// imaging grid) for `specs`, using the transport's path-replay gradient.
+    ///
+    /// # Errors
+    /// An unknown parameter path, or a reference whose length is not the scene's
+    /// grid `nz·nx`.
+    pub fn new(
+        scene: Scene,
+        reference: Vec<f64>,
+        specs: Vec<ParamSpec>,
+        opts: RenderOptions,
+    ) -> Result<Self, OptimError> {
+        Self::with_transport(scene, reference, specs, opts, Box::new(PathReplay))
+    }
+
+    /// [`Objective::new`] with another transport gradient (tests, checks).
+    pub fn with_transport(
+        scene: Scene,
+        reference: Vec<f64>,
+        specs: Vec<ParamSpec>,
+        opts: RenderOptions,
+        transport: Box<dyn TransportGradient>,
+    ) -> Result<Self, OptimError> {
+        for s in &specs {
+            scene.get(&s.path)?;
+        }
+        let (nz, nx) = grid_shape(&scene)?;
+        if reference.len() != nz * nx {
+            return Err(OptimError::Reference(format!(
+                "the reference has {} pixels but the scene's imaging grid is {nz} × {nx} = {}",
+                reference.len(),
+                nz * nx
+            )));
+        }
+        let has_imaging_c = scene.imaging.sound_speed_m_s.is_some();
+        let roles = specs
+            .iter()
+            .map(|s| match s.path.as_str() {
+                "imaging.sound_speed_m_s" => ImagingRole::SoundSpeed,
+                "medium.sound_speed_m_s" if !has_imaging_c => ImagingRole::SoundSpeed,
+                "probe.pitch_m" => ImagingRole::Pitch,
+                "probe.center_frequency_hz" => ImagingRole::CenterFrequency,
+                _ => ImagingRole::None,
+            })
+            .collect();
+        Ok(Self {
+            scene,
+            reference,
+            specs,
+            loss: L1L2::default(),
+            opts,
+            transmit_batches: Vec::new(),
+            transport,
+            roles,
+        })
+    }
+
+    /// The parameters' current values in the scene.
+    pub fn initial_physical(&self) -> Vec<f64> {
+        self.specs
+            .iter()
+            .map(|s| self.scene.get(&s.path).unwrap_or(f64::NAN))
+            .collect()
+    }
+
+    /// The image grid shape `(nz, nx)`.
+    pub fn shape(&self) -> Result<(usize, usize), OptimError> {
+        grid_shape(&self.scene)
+    }
+
+    /// The scene with the parameters set to `physical`.
+    pub fn scene_at(&self, physical: &[f64]) -> Result<Scene, OptimError> {
+        let mut scene = self.scene.clone();
+        for (s, &v) in self.specs.iter().zip(physical) {
+            scene.set(&s.path, v)?;
+        }
+        Ok(scene)
+    }
+
+    /// Channel data and B-mode of the scene at `physical`, plus the operator and its
+    /// workspace after the forward pass.
+    fn forward(
+        &self,
+        scene: &Scene,
+    ) -> Result<(ChannelData, BMode, usray_signal::Workspace, Image, f64), OptimError> {
+        let (ch, stats) = render(scene, &self.opts)?;
+        let op = BMode::new(&scene.imaging_settings(), &ch.meta, ch.n_samples)?;
+        let mut ws = op.workspace();
+        let image = op.forward(&ch, &mut ws)?;
+        Ok((ch, op, ws, image, stats.seconds))
+    }
+
+    /// The loss alone at `physical` (the fixed-seed pipeline that finite differences
+    /// check the gradient against).
+    pub fn value(&self, physical: &[f64]) -> Result<Evaluation, OptimError> {
+        let scene = self.scene_at(physical)?;
+        let (_, _, _, image, secs) = self.forward(&scene)?;
+        let loss = self.loss.value(&image.data, &self.reference);
+        Ok(Evaluation {
+            loss,
+            gradient: Vec::new(),
+            image,
+            demod_fc_part: Vec::new(),
+            render_seconds: secs,
+        })
+    }
+
+    /// Loss and `∂L/∂θ` (physical units) at `physical`: the chain of the module
+    /// docs. With [`Objective::transmit_batches`] set, the transport replay runs once
+    /// per batch of transmits with `∂L/∂P` restricted to that batch's records and
+    /// the parts are summed: `∂L/∂θ = Σ_b Σ_{tx∈b} ∂L/∂P_tx · ∂P_tx/∂θ`, exact for
+    /// a deterministic split (the image and loss are always of the full compounded
+    /// acquisition: the B-mode is nonlinear in the coherent sum over transmits, so
+    /// image losses do not split over angles).
+    pub fn value_and_gradient(&self, physical: &[f64]) -> Result<Evaluation, OptimError> {
+        let scene = self.scene_at(physical)?;
+        let (ch, op, mut ws, image, secs) = self.forward(&scene)?;
+        let mut d_image = vec![0.0; image.data.len()];
+        let loss = self
+            .loss
+            .value_and_gradient(&image.data, &self.reference, &mut d_image);
+        let d_channels = op.vjp(&mut ws, &d_image)?;
+        let paths: Vec<&str> = self.specs.iter().map(|s| s.path.as_str()).collect();
+        let mut gradient = vec![0.0; paths.len()];
+        let n_tx = ch.n_transmits();
+        let per_tx = ch.n_elements() * ch.n_samples;
+        let batches: Vec<Vec<usize>> = if self.transmit_batches.is_empty() {
+            vec![(0..n_tx).collect()]
+        } else {
+            self.transmit_batches.clone()
+        };
+        for batch in &batches {
+            let part = if batches.len() == 1 {
+                self.transport
+                    .channel_gradient(&scene, &paths, &d_channels, &self.opts)?
+            } else {
+                let mut masked = vec![0.0; d_channels.len()];
+                for &t in batch {
+                    if t >= n_tx {
+                        return Err(OptimError::Batch(format!(
+                            "micro-batch names transmit {t}, the scene has {n_tx}"
+                        )));
+                    }
+                    let r = t * per_tx..(t + 1) * per_tx;
+                    masked[r.clone()].copy_from_slice(&d_channels[r]);
+                }
+                self.transport
+                    .channel_gradient(&scene, &paths, &masked, &self.opts)?
+            };
+            for (g, p) in gradient.iter_mut().zip(part) {
+                *g += p;
+            }
+        }
+        let mut demod_fc_part = vec![0.0; paths.len()];
+        if self.roles.iter().any(|r| *r != ImagingRole::None) {
+            let cal = op.calibration_vjp(&mut ws, &d_image)?;
+            for (j, role) in self.roles.iter().enumerate() {
+                match role {
+                    ImagingRole::SoundSpeed => gradient[j] += cal.d_sound_speed,
+                    ImagingRole::Pitch => gradient[j] += cal.d_pitch,
+                    ImagingRole::CenterFrequency => {
+                        let part = self.demod_fc_derivative(&scene, &ch)?;
+                        demod_fc_part[j] = part;
+                        gradient[j] += part;
+                    }
+                    ImagingRole::None => {}
+                }
+            }
+        }
+        Ok(Evaluation {
+            loss,
+            gradient,
+            image,
+            demod_fc_part,
+            render_seconds: secs,
+        })
+    }
+
+    /// `∂L(B_fc(P))/∂f_c` with `P` fixed: central difference in the demodulation
+    /// frequency (see the module docs).
+    fn demod_fc_derivative(&self, scene: &Scene, ch: &ChannelData) -> Result<f64, OptimError> {
+        let fc = ch.meta.center_frequency_hz;
+        let h = 1e-4 * fc;
+        let at = |f: f64| -> Result<f64, OptimError> {
+            let mut c = ch.clone();
+            c.meta.center_frequency_hz = f;
+            let op = BMode::new(&scene.imaging_settings(), &c.meta, c.n_samples)?;
+            let mut ws = op.workspace();
+            let img = op.forward(&c, &mut ws)?;
+            Ok(self.loss.value(&img.data, &self.reference))
+        };
+        Ok((at(fc + h)? - at(fc - h)?) / (2.0 * h))
+    }
+}
+
+/// The imaging grid shape `(nz, nx)` of a scene.
+pub fn grid_shape(scene: &Scene) -> Result<(usize, usize), OptimError> {
+    let (x, z) = scene.imaging_settings().grid()?;
+    Ok((z.len(), x.len()))
+}

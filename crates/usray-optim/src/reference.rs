@@ -1,0 +1,90 @@
+//! Reference images for a fit (CONTRACT §4 `REF`), on the scene's imaging grid.
+//!
+//! | file | how it becomes the reference `I_ref` |
+//! |---|---|
+//! | channel data `.json` (CONTRACT §2, its `.npy` beside it) | beamformed with the scene's `[imaging]` settings ([`usray_signal::BMode`]) |
+//! | B-mode `.npy` (`[nz, nx]`, values in `[0, 1]`) | used as is; its shape must equal the scene's grid, else an error |
+//! | B-mode `.png` (8- or 16-bit grey or colour, luminance used) + sidecar `.json` with `x_range_m` and `z_range_m` | grey/255; its size **and** ranges must equal the scene's grid (ranges within half a pixel), else an error — no resampling, so no interpolation bias enters the loss |
+
+use crate::OptimError;
+use std::path::Path;
+use usray_signal::io::read_npy;
+use usray_signal::{read_channels, BMode};
+use usray_transport::Scene;
+
+/// Loads `path` as a reference B-mode `[nz, nx]` (row-major) on `scene`'s grid.
+///
+/// # Errors
+/// Unreadable or malformed files, unknown extensions, and shape or grid mismatches,
+/// each with a one-line message naming the file and both shapes.
+pub fn load_reference(path: &Path, scene: &Scene) -> Result<Vec<f64>, OptimError> {
+    let (nz, nx) = crate::objective::grid_shape(scene)?;
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let shown = path.display();
+    match ext.as_str() {
+        "json" => {
+            let ch = read_channels(path)?;
+            let op = BMode::new(&scene.imaging_settings(), &ch.meta, ch.n_samples)?;
+            let mut ws = op.workspace();
+            Ok(op.forward(&ch, &mut ws)?.data)
+        }
+        "npy" => {
+            let a = read_npy(path)?;
+            if a.shape != [nz, nx] {
+                return Err(OptimError::Reference(format!(
+                    "{shown}: B-mode shape {:?} differs from the scene's imaging grid [{nz}, {nx}] (set [imaging] x_range_m/z_range_m/pixel_m to match, or pass channel data)",
+                    a.shape
+                )));
+            }
+            Ok(a.data)
+        }
+        "png" => {
+            let sidecar = path.with_extension("json");
+            let text = std::fs::read_to_string(&sidecar).map_err(|e| {
+                OptimError::Reference(format!(
+                    "{shown}: a PNG reference needs a sidecar {} with x_range_m and z_range_m: {e}",
+                    sidecar.display()
+                ))
+            })?;
+            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+                OptimError::Reference(format!("{}: not JSON: {e}", sidecar.display()))
+            })?;
+            let range = |key: &str| -> Result<[f64; 2], OptimError> {
+                let a = v.get(key).and_then(|r| r.as_array());
+                match a.map(|a| a.iter().filter_map(|x| x.as_f64()).collect::<Vec<_>>()) {
+                    Some(r) if r.len() == 2 => Ok([r[0], r[1]]),
+                    _ => Err(OptimError::Reference(format!(
+                        "{}: `{key}` must be [min, max] in metres",
+                        sidecar.display()
+                    ))),
+                }
+            };
+            let (xr, zr) = (range("x_range_m")?, range("z_range_m")?);
+            let im = &scene.imaging;
+            let tol = 0.5 * im.pixel_m;
+            let close = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).abs() <= tol && (a[1] - b[1]).abs() <= tol;
+            if !close(xr, im.x_range_m) || !close(zr, im.z_range_m) {
+                return Err(OptimError::Reference(format!(
+                    "{shown}: ranges x {xr:?}, z {zr:?} m differ from the scene's imaging grid x {:?}, z {:?} m (no resampling is done)",
+                    im.x_range_m, im.z_range_m
+                )));
+            }
+            let img = image::open(path)
+                .map_err(|e| OptimError::Reference(format!("{shown}: cannot read PNG: {e}")))?
+                .to_luma16();
+            let (w, h) = img.dimensions();
+            if (h as usize, w as usize) != (nz, nx) {
+                return Err(OptimError::Reference(format!(
+                    "{shown}: PNG is {h} × {w} pixels (rows × columns) but the scene's imaging grid is {nz} × {nx}"
+                )));
+            }
+            Ok(img.pixels().map(|p| p.0[0] as f64 / 65535.0).collect())
+        }
+        _ => Err(OptimError::Reference(format!(
+            "{shown}: a reference must be channel data (.json) or a B-mode (.npy, or .png with a sidecar .json)"
+        ))),
+    }
+}
