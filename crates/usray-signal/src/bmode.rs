@@ -176,17 +176,9 @@ impl Image {
 pub struct BMode {
     /// The settings it was built from.
     pub settings: ImagingSettings,
-    /// The delay-and-sum configuration of the whole acquisition (grid, clock,
-    /// aperture, every transmit in file order). Image formation runs one
-    /// delay-and-sum per frame ([`BMode::frame_das`]).
+    /// The delay-and-sum stage (grid, clock, aperture, frames): one coherent
+    /// image per frame.
     pub das: Das,
-    /// Per frame: the delay-and-sum over that frame's transmits.
-    frames: Vec<Das>,
-    /// Transmit indices in frame-grouped order (position in the workspace →
-    /// transmit in the channel data).
-    order: Vec<usize>,
-    /// First grouped position of each frame, plus the total (`frames.len() + 1`).
-    frame_start: Vec<usize>,
     demod: Option<IqDemod>,
     analytic: Option<Analytic>,
     gain: Option<Vec<f64>>,
@@ -196,11 +188,10 @@ pub struct BMode {
 /// Buffers for [`BMode::forward`] and [`BMode::vjp`], allocated once.
 #[derive(Clone, Debug)]
 pub struct Workspace {
-    /// Demodulated records, frame-grouped order.
     cx: Vec<Complex64>,
     cx_bar: Vec<Complex64>,
     scratch: Vec<Complex64>,
-    /// Coherent image of each frame, `[n_frames, nz, nx]`.
+    /// Coherent image of each frame, `[nz, nx, n_frames]`.
     bf: Vec<Complex64>,
     bf_bar: Vec<Complex64>,
     env: Vec<f64>,
@@ -213,7 +204,7 @@ pub struct Workspace {
 
 impl Workspace {
     /// The beamformed complex images of the last forward call, one per frame,
-    /// `[n_frames, nz, nx]` (`[nz, nx]` for single-frame data).
+    /// pixel-major `[nz, nx, n_frames]` (`[nz, nx]` for single-frame data).
     pub fn beamformed(&self) -> &[Complex64] {
         &self.bf
     }
@@ -275,35 +266,8 @@ impl BMode {
                 )));
             }
         }
-        let groups = meta.frames().map_err(SignalError::Invalid)?;
         let rotate = settings.demod == Demod::Iq;
-        let das = Das::new(
-            meta,
-            n_samples,
-            x.clone(),
-            z.clone(),
-            c,
-            settings.f_number,
-            rotate,
-        )?;
-        let mut frames = Vec::with_capacity(groups.len());
-        let mut order = Vec::with_capacity(meta.transmits.len());
-        let mut frame_start = vec![0];
-        for g in &groups {
-            let mut m = meta.clone();
-            m.transmits = g.iter().map(|&t| meta.transmits[t].clone()).collect();
-            frames.push(Das::new(
-                &m,
-                n_samples,
-                x.clone(),
-                z.clone(),
-                c,
-                settings.f_number,
-                rotate,
-            )?);
-            order.extend_from_slice(g);
-            frame_start.push(order.len());
-        }
+        let das = Das::new(meta, n_samples, x, z, c, settings.f_number, rotate)?;
         if settings.demod == Demod::Iq && !(1..=20).contains(&settings.filter_order) {
             return Err(SignalError::Invalid(format!(
                 "imaging.filter_order = {} (the IQ low-pass order must be 1–20)",
@@ -346,9 +310,6 @@ impl BMode {
         Ok(BMode {
             settings: settings.clone(),
             das,
-            frames,
-            order,
-            frame_start,
             demod,
             analytic,
             gain,
@@ -369,20 +330,16 @@ impl BMode {
 
     /// Number of frames (incoherently averaged acquisitions).
     pub fn n_frames(&self) -> usize {
-        self.frames.len()
+        self.das.n_frames
     }
 
     /// The transmits (indices into the channel data) of each frame.
-    pub fn frame_transmits(&self) -> Vec<&[usize]> {
-        self.frame_start
-            .windows(2)
-            .map(|w| &self.order[w[0]..w[1]])
-            .collect()
-    }
-
-    /// The delay-and-sum of frame `f` (its transmits only), if `f < n_frames()`.
-    pub fn frame_das(&self, f: usize) -> Option<&Das> {
-        self.frames.get(f)
+    pub fn frame_transmits(&self) -> Vec<Vec<usize>> {
+        let mut out = vec![Vec::new(); self.das.n_frames];
+        for (t, &f) in self.das.frame_of.iter().enumerate() {
+            out[f].push(t);
+        }
+        out
     }
 
     /// Allocate the workspace for this operator.
@@ -395,8 +352,8 @@ impl BMode {
             cx: vec![zero; n],
             cx_bar: vec![zero; n],
             scratch: vec![zero; n],
-            bf: vec![zero; m * self.frames.len()],
-            bf_bar: vec![zero; m * self.frames.len()],
+            bf: vec![zero; m * self.das.n_frames],
+            bf_bar: vec![zero; m * self.das.n_frames],
             env: vec![0.0; m],
             env_bar: vec![0.0; m],
             db: vec![0.0; m],
@@ -409,7 +366,7 @@ impl BMode {
     /// `Err` unless `ws` was made by [`BMode::workspace`] of an operator of this shape.
     fn check_workspace(&self, ws: &Workspace) -> Result<()> {
         let (nz, nx) = self.image_shape();
-        let (n, m, f) = (self.das.data_len(), nz * nx, self.frames.len());
+        let (n, m, f) = (self.das.data_len(), nz * nx, self.das.n_frames);
         let ok = ws.cx.len() == n
             && ws.cx_bar.len() == n
             && ws.scratch.len() == n
@@ -455,7 +412,7 @@ impl BMode {
         let ns = self.das.n_samples;
         let ne = self.n_elements;
         let fs = self.das.fs_hz;
-        // 1–2. gain and demodulation, per record, into frame-grouped order.
+        // 1–2. gain and demodulation, per record.
         let gain = self.gain.as_deref();
         ws.cx.par_chunks_mut(ns).enumerate().for_each_init(
             || {
@@ -467,9 +424,8 @@ impl BMode {
                         .map(|a| vec![Complex64::new(0.0, 0.0); a.scratch_len()]),
                 )
             },
-            |(re, im, fsc), (pos, out)| {
-                let t = self.order[pos / ne];
-                let rec = t * ne + pos % ne;
+            |(re, im, fsc), (rec, out)| {
+                let t = rec / ne;
                 let src = &ch.samples[rec * ns..(rec + 1) * ns];
                 match gain {
                     Some(g) => {
@@ -500,14 +456,7 @@ impl BMode {
         // 3. delay-and-sum, coherent within each frame.
         let (nz, nx) = self.image_shape();
         let npix = nz * nx;
-        let rec_len = ne * ns;
-        for (f, das) in self.frames.iter().enumerate() {
-            let (a, b) = (
-                self.frame_start[f] * rec_len,
-                self.frame_start[f + 1] * rec_len,
-            );
-            das.forward(&ws.cx[a..b], &mut ws.bf[f * npix..(f + 1) * npix]);
-        }
+        self.das.forward(&ws.cx, &mut ws.bf);
         // 4. envelope per frame, mean over frames, log, clip.
         self.mean_envelope(ws);
         ws.argmax = post::log_compress(&ws.env, &mut ws.db);
@@ -525,21 +474,19 @@ impl BMode {
 
     /// `env = (1/F) Σ_f |bf_f|` (for one frame exactly `|bf|`).
     fn mean_envelope(&self, ws: &mut Workspace) {
-        let nf = self.frames.len();
-        post::envelope(&ws.bf[..ws.env.len()], &mut ws.env);
-        if nf > 1 {
-            let npix = ws.env.len();
+        let nf = self.das.n_frames;
+        if nf == 1 {
+            post::envelope(&ws.bf, &mut ws.env);
+        } else {
             let inv = 1.0 / nf as f64;
-            ws.env.par_iter_mut().enumerate().for_each(|(p, e)| {
-                for f in 1..nf {
-                    *e += ws.bf[f * npix + p].norm();
-                }
-                *e *= inv;
-            });
+            ws.env
+                .par_iter_mut()
+                .zip(ws.bf.par_chunks(nf))
+                .for_each(|(e, u)| *e = u.iter().map(|v| v.norm()).sum::<f64>() * inv);
         }
     }
 
-    /// Pull `d_image` back to `ws.bf_bar` (`[n_frames, nz, nx]`), checking lengths.
+    /// Pull `d_image` back to `ws.bf_bar` (`[nz, nx, n_frames]`), checking lengths.
     fn image_to_bf_bar(&self, ws: &mut Workspace, d_image: &[f64], who: &str) -> Result<()> {
         if !ws.has_forward {
             return Err(SignalError::Invalid(format!(
@@ -562,19 +509,18 @@ impl BMode {
             &mut ws.db_bar,
         );
         post::log_compress_vjp(&ws.env, ws.argmax, &ws.db_bar, &mut ws.env_bar);
-        let nf = self.frames.len();
-        let npix = nz * nx;
+        let nf = self.das.n_frames;
         if nf == 1 {
             post::envelope_vjp(&ws.bf, &ws.env_bar, &mut ws.bf_bar);
         } else {
             // E = (1/F) Σ_f |u_f|  ⇒  ū_f = (Ē/F)·u_f/|u_f|.
             let inv = 1.0 / nf as f64;
-            let (bf, env_bar) = (&ws.bf, &ws.env_bar);
             ws.bf_bar
-                .par_chunks_mut(npix)
-                .zip(bf.par_chunks(npix))
-                .for_each(|(ub, u)| {
-                    for ((b, v), &g) in ub.iter_mut().zip(u).zip(env_bar) {
+                .par_chunks_mut(nf)
+                .zip(ws.bf.par_chunks(nf))
+                .zip(&ws.env_bar)
+                .for_each(|((ub, u), &g)| {
+                    for (b, v) in ub.iter_mut().zip(u) {
                         let n = v.norm();
                         *b = if n > 0.0 {
                             *v * (g * inv / n)
@@ -614,33 +560,13 @@ impl BMode {
             d_channels.len(),
         )?;
         self.image_to_bf_bar(ws, d_image, "BMode::vjp")?;
-        let (nz, nx) = self.image_shape();
-        let npix = nz * nx;
         let ns = self.das.n_samples;
         let ne = self.n_elements;
-        let rec_len = ne * ns;
-        for (f, das) in self.frames.iter().enumerate() {
-            let (a, b) = (
-                self.frame_start[f] * rec_len,
-                self.frame_start[f + 1] * rec_len,
-            );
-            das.vjp(
-                &ws.bf_bar[f * npix..(f + 1) * npix],
-                &mut ws.cx_bar[a..b],
-                &mut ws.scratch[a..b],
-            );
-        }
-        // Back from frame-grouped order to the channel data's transmit order
-        // (scratch is free again).
-        let (cx_bar, scratch) = (&ws.cx_bar, &mut ws.scratch);
-        for (g, &t) in self.order.iter().enumerate() {
-            scratch[t * rec_len..(t + 1) * rec_len]
-                .copy_from_slice(&cx_bar[g * rec_len..(g + 1) * rec_len]);
-        }
+        self.das.vjp(&ws.bf_bar, &mut ws.cx_bar, &mut ws.scratch);
         let gain = self.gain.as_deref();
         d_channels
             .par_chunks_mut(ns)
-            .zip(scratch.par_chunks_mut(ns))
+            .zip(ws.cx_bar.par_chunks_mut(ns))
             .enumerate()
             .for_each_init(
                 || {
@@ -671,28 +597,12 @@ impl BMode {
 
     /// Gradient of `L` with respect to the beamforming sound speed and pitch at the
     /// last forward point, given `∂L/∂I` (uses the same chain down to the
-    /// beamformed images, then [`Das::calibration_vjp`] per frame, summed).
+    /// beamformed images, then [`Das::calibration_vjp`]).
     ///
     /// # Errors
     /// As [`BMode::vjp`].
     pub fn calibration_vjp(&self, ws: &mut Workspace, d_image: &[f64]) -> Result<CalibrationGrad> {
         self.image_to_bf_bar(ws, d_image, "BMode::calibration_vjp")?;
-        let (nz, nx) = self.image_shape();
-        let npix = nz * nx;
-        let rec_len = self.n_elements * self.das.n_samples;
-        let mut total = CalibrationGrad {
-            d_sound_speed: 0.0,
-            d_pitch: 0.0,
-        };
-        for (f, das) in self.frames.iter().enumerate() {
-            let (a, b) = (
-                self.frame_start[f] * rec_len,
-                self.frame_start[f + 1] * rec_len,
-            );
-            let g = das.calibration_vjp(&ws.cx[a..b], &ws.bf_bar[f * npix..(f + 1) * npix]);
-            total.d_sound_speed += g.d_sound_speed;
-            total.d_pitch += g.d_pitch;
-        }
-        Ok(total)
+        Ok(self.das.calibration_vjp(&ws.cx, &ws.bf_bar))
     }
 }

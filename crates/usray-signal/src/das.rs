@@ -15,7 +15,10 @@
 //! multiplied by `exp(+2πi f_c τ)` to restore the carrier phase (Szabo, "Diagnostic
 //! Ultrasound Imaging: Inside Out", quadrature sampling; as PyMUST `dasmtx`). Receive apodisation by F-number
 //! `F`: element `e` contributes with weight 1 if `|x − x_e| ≤ z/(2F)`, else 0
-//! (rectangular; `F = 0` = full aperture). Transmits are summed coherently.
+//! (rectangular; `F = 0` = full aperture). Transmits are summed coherently within
+//! each frame (the transmits' `frame` keys, [`ChannelMeta::frames`]); the output
+//! holds one coherent image per frame, pixel-major `[nz, nx, n_frames]` (for
+//! single-frame data simply `[nz, nx]`).
 //!
 //! Speed: when the `x` grid is uniform and the pitch is an integer multiple of its
 //! step, the receive distance and phase are tabulated once per distinct `x − x_e`
@@ -62,6 +65,10 @@ pub struct Das {
     /// Multiply complex samples by `exp(+2πi f_c τ)` (true for baseband IQ, false for
     /// RF and analytic signals).
     pub rotate: bool,
+    /// Per transmit: index of its frame in `0..n_frames` ([`ChannelMeta::frames`]).
+    pub frame_of: Vec<usize>,
+    /// Number of frames (coherent images in the output).
+    pub n_frames: usize,
 }
 
 /// Gradient of a scalar loss with respect to the beamformer's calibration
@@ -203,6 +210,13 @@ impl Das {
             return Err(SignalError::Invalid("empty pixel grid".into()));
         }
         let nt = meta.transmits.len();
+        let groups = meta.frames().map_err(SignalError::Invalid)?;
+        let mut frame_of = vec![0; nt];
+        for (f, g) in groups.iter().enumerate() {
+            for &t in g {
+                frame_of[t] = f;
+            }
+        }
         Ok(Das {
             x_m,
             z_m,
@@ -216,6 +230,8 @@ impl Das {
             n_samples,
             f_number,
             rotate,
+            frame_of,
+            n_frames: groups.len(),
         })
     }
 
@@ -226,6 +242,10 @@ impl Das {
     /// Image size `(nz, nx)`.
     pub fn image_shape(&self) -> (usize, usize) {
         (self.z_m.len(), self.x_m.len())
+    }
+    /// Output length `nz · nx · n_frames`.
+    pub fn out_len(&self) -> usize {
+        self.z_m.len() * self.x_m.len() * self.n_frames
     }
     /// Number of channel samples `n_transmits · n_elements · n_samples`.
     pub fn data_len(&self) -> usize {
@@ -334,13 +354,13 @@ impl Das {
     }
 
     fn check(&self, data_len: usize, out_len: usize) {
-        let (nz, nx) = self.image_shape();
         assert_eq!(data_len, self.data_len(), "channel buffer length");
-        assert_eq!(out_len, nz * nx, "image buffer length");
+        assert_eq!(out_len, self.out_len(), "image buffer length");
     }
 
-    /// Forward: `out[iz·nx + ix] = Σ_θ Σ_e P_θ,e(s)·rot` (paper eq. `das`).
-    /// `data` is `[n_transmits, n_elements, n_samples]`, `out` is `[nz, nx]`.
+    /// Forward: `out[(iz·nx + ix)·F + f] = Σ_{θ ∈ frame f} Σ_e P_θ,e(s)·rot` (paper
+    /// eq. `das`). `data` is `[n_transmits, n_elements, n_samples]`, `out` is
+    /// `[nz, nx, n_frames]`.
     ///
     /// # Panics
     /// If the buffer lengths disagree with the configuration (a programming error).
@@ -358,7 +378,8 @@ impl Das {
         let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
         let table = self.rx_table();
         let table = table.as_ref();
-        out.par_chunks_mut(nx).enumerate().for_each_init(
+        let nf = self.n_frames;
+        out.par_chunks_mut(nx * nf).enumerate().for_each_init(
             || {
                 (
                     vec![0.0; nt],
@@ -368,7 +389,7 @@ impl Das {
             },
             |(ttx, rtx, acc), (iz, row)| {
                 let z = self.z_m[iz];
-                for (ix, o) in row.iter_mut().enumerate() {
+                for (ix, px) in row.chunks_exact_mut(nf).enumerate() {
                     let x = self.x_m[ix];
                     for t in 0..nt {
                         let tt = (x * trig[t].0 + z * trig[t].1) / c;
@@ -393,18 +414,17 @@ impl Das {
                             acc[t] += v.rot(rrx);
                         }
                     }
-                    let mut sum = S::zero();
+                    px.fill(S::zero());
                     for t in 0..nt {
-                        sum += acc[t].rot(rtx[t]);
+                        px[self.frame_of[t]] += acc[t].rot(rtx[t]);
                     }
-                    *o = sum;
                 }
             },
         );
     }
 
     /// VJP (paper eq. `das_adjoint`): back-projects the image cotangent `out_bar`
-    /// (`[nz, nx]`) into `data_bar` (`[n_transmits, n_elements, n_samples]`,
+    /// (`[nz, nx, n_frames]`) into `data_bar` (`[n_transmits, n_elements, n_samples]`,
     /// overwritten) with the same interpolation weights (and the conjugate
     /// rotation). `scratch` must have `data_len()` entries (element-major staging).
     ///
@@ -446,10 +466,10 @@ impl Das {
         let table = self.rx_table();
         let table = table.as_ref();
         // scratch layout [e][t][ns]: one contiguous block per element.
-        scratch
-            .par_chunks_mut(nt * ns)
-            .enumerate()
-            .for_each(|(e, blk)| {
+        let nf = self.n_frames;
+        scratch.par_chunks_mut(nt * ns).enumerate().for_each_init(
+            || vec![S::zero(); nf],
+            |grx, (e, blk)| {
                 blk.fill(S::zero());
                 for iz in 0..self.z_m.len() {
                     for ix in 0..nx {
@@ -457,12 +477,12 @@ impl Das {
                             continue;
                         };
                         let p = iz * nx + ix;
-                        let grx = if self.rotate {
-                            out_bar[p].rot_conj(rrx)
-                        } else {
-                            out_bar[p]
-                        };
+                        for (f, g) in grx.iter_mut().enumerate() {
+                            let ob = out_bar[p * nf + f];
+                            *g = if self.rotate { ob.rot_conj(rrx) } else { ob };
+                        }
                         for t in 0..nt {
+                            let grx = grx[self.frame_of[t]];
                             let s = (txt[t * npix + p] - self.t0_s[t] + trx) * fs;
                             let Some((i, fw)) = locate(s, ns) else {
                                 continue;
@@ -478,7 +498,8 @@ impl Das {
                         }
                     }
                 }
-            });
+            },
+        );
         data_bar
             .par_chunks_mut(ns)
             .enumerate()
@@ -518,7 +539,7 @@ impl Das {
                 let z = self.z_m[iz];
                 let (mut gc, mut gp) = (0.0, 0.0);
                 for (ix, &x) in self.x_m.iter().enumerate() {
-                    let g = out_bar[iz * nx + ix];
+                    let p = (iz * nx + ix) * self.n_frames;
                     for e in 0..ne {
                         let dx = x - self.element_x(e);
                         if !self.in_aperture(dx, z) {
@@ -542,7 +563,7 @@ impl Das {
                                 let (sn, co) = (w * tau).sin_cos();
                                 dv = (dv + v.times_i().scale(w)).rot(Complex64::new(co, sn));
                             }
-                            let q = dv.dot(g);
+                            let q = dv.dot(out_bar[p + self.frame_of[t]]);
                             gc += q * (-tau / c);
                             gp += q * dtau_dp;
                         }

@@ -31,6 +31,9 @@
 //! frames. Either every transmit carries `frame` or none does
 //! ([`ChannelMeta::frames`] and [`read_channels`] reject a mix or a non-integer);
 //! data without `frame` keys is one frame, all transmits compounded coherently.
+//! One delay-and-sum pass forms every frame's coherent image at once
+//! ([`das::Das::frame_of`], output `[nz, nx, n_frames]`), so 32 one-transmit
+//! frames cost about as much as one 32-transmit frame.
 //!
 //! ## Errors, not panics
 //!

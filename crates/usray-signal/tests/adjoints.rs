@@ -77,6 +77,34 @@ proptest! {
         prop_assert!((lhs - rhs).abs() <= 2.0 * m * EPS * bound + 1e-300, "lhs {lhs} rhs {rhs} bound {bound}");
     }
 
+    /// Several frames (one coherent image per frame, `[nz, nx, n_frames]`), with
+    /// frames interleaved across transmits (`frame_of[t] = t mod F`).
+    #[test]
+    fn das_iq_adjoint_frames(seed in any::<u64>(), ne in 1usize..10, nt in 1usize..5, nf_sel in 0usize..4,
+                             nx in 1usize..10, nz in 1usize..6, lattice in any::<bool>()) {
+        let mut das = das_case_grid(seed, ne, nt, nx, nz, 1.0, true, lattice);
+        let nf = 1 + nf_sel % nt;
+        das.frame_of = (0..nt).map(|t| t % nf).collect();
+        das.n_frames = nf;
+        let mut r = Rng(seed ^ 3);
+        let x = r.cvec(das.data_len());
+        let y = r.cvec(das.out_len());
+        let mut ax = vec![Complex64::new(0.0, 0.0); das.out_len()];
+        das.forward(&x, &mut ax);
+        let mut aty = vec![Complex64::new(0.0, 0.0); das.data_len()];
+        let mut scratch = aty.clone();
+        das.vjp(&y, &mut aty, &mut scratch);
+        let (lhs, rhs) = (cdot(&ax, &y), cdot(&x, &aty));
+        let mut rf = das.clone();
+        rf.rotate = false;
+        let ax_abs: Vec<f64> = x.iter().map(|v| v.norm()).collect();
+        let mut s = vec![0.0; das.out_len()];
+        rf.forward(&ax_abs, &mut s);
+        let bound: f64 = s.iter().zip(&y).map(|(a, b)| a * b.norm()).sum();
+        let m = (2 * ne * nt + 2 * das.out_len() + das.data_len()) as f64;
+        prop_assert!((lhs - rhs).abs() <= 2.0 * m * EPS * bound + 1e-300, "lhs {lhs} rhs {rhs} bound {bound}");
+    }
+
     #[test]
     fn das_rf_adjoint(seed in any::<u64>(), ne in 1usize..12, nt in 1usize..4, nx in 1usize..12, nz in 1usize..7,
                       fnum in prop_oneof![Just(0.0), 0.5f64..2.0], lattice in any::<bool>()) {
