@@ -9,8 +9,8 @@
 //!    ([`usray_signal::BMode`]);
 //! 3. loss `L(I, I_ref)` and `∂L/∂I` (paper eq. `weighted_l1_l2_loss`);
 //! 4. `∂L/∂P = Bᵀ ∂L/∂I` ([`usray_signal::BMode::vjp`], paper eq. `l2_backprop`);
-//! 5. transport part `Σ ∂L/∂P · ∂P/∂θ_j` by path replay with the same random numbers
-//!    ([`TransportGradient`]);
+//! 5. transport part `Σ ∂L/∂P · ∂P/∂θ_j` ([`TransportGradient`]; see
+//!    [`PathReplay`] for what is used until the transport's path replay lands);
 //! 6. image-formation parts, for parameters the beamformer also reads:
 //!    - the beamformer's sound speed (`imaging.sound_speed_m_s`, or
 //!      `medium.sound_speed_m_s` when the scene has no `imaging.sound_speed_m_s`,
@@ -50,9 +50,15 @@ pub trait TransportGradient: Send + Sync {
     ) -> Result<Vec<f64>, SceneError>;
 }
 
-/// The transport crate's gradient by path replay
-/// (`usray_transport::channel_gradient`, see its docs: forward duals or per-path
-/// reverse tapes, chosen by the library; memory independent of the ray count).
+/// The transport part of the gradient used by [`Objective::new`].
+///
+/// **Interim:** until `usray_transport::channel_gradient` (path replay with the same
+/// random numbers, memory independent of the ray count) lands, this is a central
+/// finite difference of the fixed-seed channel data,
+/// `Σ d_channels · (P(θ_j + h) − P(θ_j − h)) / 2h` with `h = 10⁻⁶·|θ_j|`, two
+/// `f64` renders per parameter. It is checked against finite differences of the
+/// loss in `tests/calibration.rs`; it is *not* AD, and is replaced by the
+/// transport's replay when that lands.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathReplay;
 
@@ -64,25 +70,60 @@ impl TransportGradient for PathReplay {
         d_channels: &[f64],
         opts: &RenderOptions,
     ) -> Result<Vec<f64>, SceneError> {
-        stand_in::channel_gradient(scene, params, d_channels, opts)
+        params
+            .iter()
+            .map(|p| {
+                let v = scene.get(p)?;
+                let h = 1e-6 * v.abs().max(1e-12);
+                let mut a = scene.clone();
+                a.set(p, v + h)?;
+                let mut b = scene.clone();
+                b.set(p, v - h)?;
+                let (pa, _) = render(&a, opts)?;
+                let (pb, _) = render(&b, opts)?;
+                Ok(dot_records(&pa, &pb, d_channels) / (2.0 * h))
+            })
+            .collect()
     }
 }
 
-/// Interim transport gradient until `usray_transport::channel_gradient` lands:
-/// one forward-dual replay (`Dual<1>`) of the whole render per parameter, dotted
-/// with `d_channels`. Exact for the fixed-seed estimator except for what the
-/// generic tracer does not carry in `T` (the pulse taps depend on `f_c` in `f64`).
-mod stand_in {
-    use super::*;
-    use usray_ad::Dual;
-    use usray_transport::render_lifted;
+/// `Σ d · (a − b)` record by record; records of different lengths (the sample grid
+/// depends on pitch and speeds) are compared over their common prefix (the tails
+/// are past the last echo).
+fn dot_records(a: &ChannelData, b: &ChannelData, d: &[f64]) -> f64 {
+    let n_rec = a.n_transmits() * a.n_elements();
+    let ns_d = if n_rec > 0 { d.len() / n_rec } else { 0 };
+    let n = ns_d.min(a.n_samples).min(b.n_samples);
+    let mut sum = 0.0;
+    for r in 0..n_rec {
+        let (ra, rb, rd) = (
+            &a.samples[r * a.n_samples..],
+            &b.samples[r * b.n_samples..],
+            &d[r * ns_d..],
+        );
+        for k in 0..n {
+            sum += rd[k] * (ra[k] - rb[k]);
+        }
+    }
+    sum
+}
 
-    pub fn channel_gradient(
+/// Forward-mode AD through the transport's generic tracer: one `Dual<1>` render of
+/// the whole scene per parameter, dotted with `d_channels`. Kept as a check of the
+/// tracer's derivatives (`tests/calibration.rs` measures it against finite
+/// differences); not used by default.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DualReplay;
+
+impl TransportGradient for DualReplay {
+    fn channel_gradient(
+        &self,
         scene: &Scene,
         params: &[&str],
         d_channels: &[f64],
         opts: &RenderOptions,
     ) -> Result<Vec<f64>, SceneError> {
+        use usray_ad::Dual;
         let mut out = Vec::with_capacity(params.len());
         for &p in params {
             scene.get(p)?;
@@ -93,7 +134,7 @@ mod stand_in {
                     Dual::constant(v)
                 }
             })?;
-            let (samples, _, _) = render_lifted(scene, &st, opts);
+            let (samples, _, _) = usray_transport::render_lifted(scene, &st, opts);
             out.push(
                 samples
                     .iter()
@@ -294,6 +335,22 @@ impl Objective {
         } else {
             self.transmit_batches.clone()
         };
+        if !self.transmit_batches.is_empty() {
+            let mut seen = vec![0usize; n_tx];
+            for &t in batches.iter().flatten() {
+                if t >= n_tx {
+                    return Err(OptimError::Batch(format!(
+                        "micro-batch names transmit {t}, the scene has {n_tx}"
+                    )));
+                }
+                seen[t] += 1;
+            }
+            if seen.iter().any(|&c| c != 1) {
+                return Err(OptimError::Batch(format!(
+                    "micro-batches must name each of the {n_tx} transmits exactly once (an exact split)"
+                )));
+            }
+        }
         for batch in &batches {
             let part = if batches.len() == 1 {
                 self.transport
@@ -301,11 +358,6 @@ impl Objective {
             } else {
                 let mut masked = vec![0.0; d_channels.len()];
                 for &t in batch {
-                    if t >= n_tx {
-                        return Err(OptimError::Batch(format!(
-                            "micro-batch names transmit {t}, the scene has {n_tx}"
-                        )));
-                    }
                     let r = t * per_tx..(t + 1) * per_tx;
                     masked[r.clone()].copy_from_slice(&d_channels[r]);
                 }
