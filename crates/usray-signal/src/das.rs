@@ -354,6 +354,13 @@ impl Das {
     }
 
     fn check(&self, data_len: usize, out_len: usize) {
+        assert!(
+            self.frame_of.len() == self.n_transmits()
+                && self.frame_of.iter().all(|&f| f < self.n_frames),
+            "frame_of must give each of the {} transmits a frame in 0..{}",
+            self.n_transmits(),
+            self.n_frames
+        );
         assert_eq!(data_len, self.data_len(), "channel buffer length");
         assert_eq!(out_len, self.out_len(), "image buffer length");
     }
