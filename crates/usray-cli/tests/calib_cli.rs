@@ -1,0 +1,210 @@
+//! `usray grad` / `usray fit` from the outside: file shapes and bad inputs.
+
+use std::path::Path;
+use std::process::Command;
+
+const CYLINDER: &str = include_str!("../../../scenes/cylinder.toml");
+
+/// A tiny cylinder scene (16 elements, one angle, 20 rays, 0.4 mm grid).
+fn tiny_scene(dir: &Path) -> std::path::PathBuf {
+    let mut text = CYLINDER
+        .replace("n_elements = 128", "n_elements = 16")
+        .replace(
+            "angles_deg = [-10.0, -5.0, 0.0, 5.0, 10.0]",
+            "angles_deg = [0.0]",
+        )
+        .replace("rays_per_element = 200", "rays_per_element = 20")
+        .replace("rays_per_element = 1000", "rays_per_element = 20")
+        .replace("x_range_m = [-0.015, 0.015]", "x_range_m = [-0.004, 0.004]")
+        .replace("z_range_m = [0.002, 0.028]", "z_range_m = [0.008, 0.02]")
+        .replace("pixel_m = 0.1e-3", "pixel_m = 0.4e-3");
+    text.push('\n');
+    let p = dir.join("tiny.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn usray(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_usray"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn grad_writes_contract_json_and_bad_inputs_fail_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let refdir = dir.path().join("ref");
+    let o = usray(&["render", s, "--out", refdir.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reference = refdir.join("bmode.npy");
+    let r = reference.to_str().unwrap();
+
+    // grad.json exactly as CONTRACT §4.
+    let out = dir.path().join("g");
+    let o = usray(&[
+        "grad",
+        s,
+        "--reference",
+        r,
+        "--params",
+        "objects.cylinder.radius_m=0.0045:0.0055,materials.target.roughness",
+        "--fd-sweep",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("grad.json")).unwrap()).unwrap();
+    let keys: Vec<&String> = v.as_object().unwrap().keys().collect();
+    assert_eq!(keys, ["loss", "gradient", "fd"]);
+    assert!(v["loss"].as_f64().unwrap().is_finite());
+    for p in ["objects.cylinder.radius_m", "materials.target.roughness"] {
+        assert!(v["gradient"][p].as_f64().unwrap().is_finite());
+        let sweep = v["fd"][p].as_array().unwrap();
+        assert_eq!(sweep.len(), 9);
+        let eps: Vec<f64> = sweep.iter().map(|e| e["eps"].as_f64().unwrap()).collect();
+        assert!(eps
+            .windows(2)
+            .all(|w| (w[0] / w[1] - 10f64.sqrt()).abs() < 1e-9));
+        assert!(sweep.iter().all(|e| e["fd"].as_f64().is_some()));
+        assert!(out.join(format!("fd_{}.png", p.replace('.', "_"))).exists());
+    }
+
+    // Bad inputs: one line on stderr, non-zero exit, nothing written.
+    let bad_out = dir.path().join("bad");
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["--params", "objects.cylinder.nope"],
+            "objects.cylinder.nope",
+        ),
+        (
+            vec!["--params", "objects.cylinder.radius_m=0.006:0.004"],
+            "empty",
+        ),
+        (
+            vec!["--params", "objects.cylinder.radius_m=a:b"],
+            "not a finite number",
+        ),
+        (
+            vec!["--params", "objects.cylinder.radius_m=0.004"],
+            "PATH=MIN:MAX",
+        ),
+    ];
+    for (extra, needle) in cases {
+        let mut args = vec![
+            "grad",
+            s,
+            "--reference",
+            r,
+            "--out",
+            bad_out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let o = usray(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success());
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(needle), "{err}");
+        assert!(!bad_out.exists(), "files written on bad input: {err}");
+    }
+    // Reference shape mismatch: a B-mode of another grid.
+    let wrong = dir.path().join("wrong.npy");
+    usray::write_npy(&wrong);
+    for cmd in ["grad", "fit"] {
+        let o = usray(&[
+            cmd,
+            s,
+            "--reference",
+            wrong.to_str().unwrap(),
+            "--params",
+            "objects.cylinder.radius_m",
+            "--out",
+            bad_out.to_str().unwrap(),
+        ]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success());
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("differs from the scene's imaging grid"),
+            "{err}"
+        );
+        assert!(!bad_out.exists());
+    }
+}
+
+#[test]
+fn fit_writes_every_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let refdir = dir.path().join("ref");
+    assert!(
+        usray(&["render", s, "--out", refdir.to_str().unwrap(), "--quiet"])
+            .status
+            .success()
+    );
+    let out = dir.path().join("f");
+    let o = usray(&[
+        "fit",
+        s,
+        "--reference",
+        refdir.join("channels.json").to_str().unwrap(),
+        "--params",
+        "materials.target.roughness=0.1:0.9",
+        "--iters",
+        "3",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "fit.json",
+        "fitted.toml",
+        "initial.png",
+        "final.png",
+        "reference.png",
+        "overlay_initial.png",
+        "overlay_final.png",
+        "loss.png",
+        "params.png",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fit.json")).unwrap()).unwrap();
+    let h = v["history"].as_array().unwrap();
+    assert_eq!(h.len(), 3);
+    assert!(h[0]["loss"].as_f64().is_some());
+    assert!(h[0]["params"]["materials.target.roughness"]
+        .as_f64()
+        .is_some());
+    assert!(v["final"]["loss"].as_f64().is_some());
+    // Only the outputs, no temporary files left behind.
+    assert!(std::fs::read_dir(&out).unwrap().all(|e| !e
+        .unwrap()
+        .file_name()
+        .to_string_lossy()
+        .starts_with('.')));
+}
+
+mod usray {
+    /// A float64 NPY `[3, 4]` of zeros (the wrong shape for any test grid).
+    pub fn write_npy(path: &std::path::Path) {
+        let header = "{'descr': '<f8', 'fortran_order': False, 'shape': (3, 4), }";
+        let mut h = header.to_string();
+        while (10 + h.len() + 1) % 64 != 0 {
+            h.push(' ');
+        }
+        h.push('\n');
+        let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+        bytes.extend_from_slice(&(h.len() as u16).to_le_bytes());
+        bytes.extend_from_slice(h.as_bytes());
+        bytes.extend(std::iter::repeat_n(0u8, 12 * 8));
+        std::fs::write(path, bytes).unwrap();
+    }
+}
