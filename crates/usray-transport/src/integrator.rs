@@ -29,14 +29,34 @@
 //!    transmission.
 //! 6. Stop after `max_bounces` interactions, on escape, or a dead sample.
 //!
-//! **Double counting.** A path deposits by direct array hits only while every
-//! interaction so far was a delta (smooth) lobe; once a rough interaction has
-//! happened, arrival at the array is estimated by receiver connections only. Paths
+//! **Double counting and MIS.** A path deposits by a direct array hit while every
+//! interaction so far was a delta (smooth) lobe (weight 1). After a rough vertex,
+//! arrival at the array is estimated by two strategies combined with the power
+//! heuristic (Veach 1997, §9.2): the vertex's receiver connection to element `e`
+//! (density `1/(sel_w·Ω_e)`, `Ω_e = A_e cos θ_e / r²`) and the continuation it
+//! samples reaching element `e`'s face directly with no other interaction
+//! (density `pdf(wi, wo)` of [`crate::ggx::Interface::pdf`]). The weights are
+//! detached values (they sum to one per path, so value and gradient stay
+//! unbiased); connections that cross a boundary keep weight 1 (the continuation
+//! cannot produce them). A connection crossing a boundary treats it as smooth
+//! (Fresnel `T`, no refraction), so it already estimates every later path that
+//! *transmits* through that boundary towards the array: after the first rough
+//! vertex of a path, transmission-side connections and direct hits after a
+//! rough transmission are therefore not made (else the distal wall of a vessel
+//! would be counted twice, once through the near-delta lobe). This removes the fireflies of connections through a
+//! nearly delta lobe: GGX transmission between two almost index-matched media
+//! (1540 → 1570 m/s) is a narrow spike around the straight-through direction,
+//! which a fixed connection direction samples with enormous variance. Paths
 //! that need a delta lobe *after* the last rough vertex to reach the array (rough
 //! → mirror → array) are not counted: the connection is a straight line.
 //!
-//! **Connections** (paper, "Transducer Sampling"): an element is chosen uniformly
-//! (probability `1/N_e`, divided out), the aim point is its centre, and the
+//! **Connections** (paper, "Transducer Sampling"): by default every interaction
+//! connects to **every** element (a deterministic sum over receivers, weight 1:
+//! no selection variance, so each scattering event is a perfectly focused point
+//! source in the delay-and-sum image). `acquisition.receivers_per_event = K < N_e`
+//! instead draws one element uniformly in each of `K` contiguous strata (weight
+//! `N_e/K`, the stratum size); `K = 1` is the paper's single uniformly chosen
+//! element (probability `1/N_e`, divided out). The aim point is the centre, and the
 //! straight segment to it is traced through the scene multiplying the Fresnel
 //! transmission coefficient of every boundary crossed (refraction is **ignored**
 //! on the connection, as in the paper; total internal reflection blocks it) and
@@ -85,6 +105,59 @@ pub struct TraceSettings {
     pub max_bounces: u32,
     /// Rays per element (deposits are divided by it).
     pub rays_per_element: usize,
+    /// Receivers each interaction connects to (`acquisition.receivers_per_event`):
+    /// `K ≥ N_e` (or 0) = every element, deterministically, weight 1; `K < N_e` =
+    /// one element drawn uniformly in each of `K` contiguous strata, weight = the
+    /// stratum's size (`N_e/K`); `K = 1` is the paper's uniform choice.
+    pub receivers_per_event: usize,
+}
+
+impl TraceSettings {
+    /// The receiving elements of one interaction and their estimator weights,
+    /// from the interaction's uniform `u` (see
+    /// [`TraceSettings::receivers_per_event`]): stratum `j` of `K` holds elements
+    /// `⌊jN/K⌋ .. ⌊(j+1)N/K⌋`; its element is `lo + ⌊u·size⌋`, weight `size`.
+    #[inline]
+    pub fn receivers(&self, n_el: usize, u: f64) -> impl Iterator<Item = (usize, f64)> {
+        let k = match self.receivers_per_event {
+            0 => n_el,
+            k => k.min(n_el),
+        };
+        (0..k).map(move |j| {
+            let lo = j * n_el / k;
+            let hi = (j + 1) * n_el / k;
+            let size = hi - lo;
+            let e = lo + ((u * size as f64) as usize).min(size - 1);
+            (e, size as f64)
+        })
+    }
+
+    /// The estimator weight [`TraceSettings::receivers`] gives element `e` (its
+    /// stratum's size).
+    pub fn receiver_weight(&self, n_el: usize, e: usize) -> f64 {
+        let k = match self.receivers_per_event {
+            0 => n_el,
+            k => k.min(n_el),
+        };
+        (0..k)
+            .map(|j| (j * n_el / k, (j + 1) * n_el / k))
+            .find(|&(lo, hi)| (lo..hi).contains(&e))
+            .map_or(1.0, |(lo, hi)| (hi - lo) as f64)
+    }
+}
+
+/// Power-heuristic MIS weight (β = 2) of a strategy with density `p` against one
+/// with density `q` (Veach 1997, §9.2.3); values only (detached).
+#[inline]
+fn power_heuristic(p: f64, q: f64) -> f64 {
+    let (p2, q2) = (p * p, q * q);
+    if p2 + q2 > 0.0 && (p2 + q2).is_finite() {
+        p2 / (p2 + q2)
+    } else if p.is_infinite() {
+        1.0
+    } else {
+        0.0
+    }
 }
 
 /// Work counters of one trace.
@@ -99,6 +172,7 @@ pub struct TraceCounters {
 /// State shared by the steps of one path.
 struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>)> {
     st: &'a SceneT<T>,
+    settings: &'a TraceSettings,
     norm: T,
     counters: TraceCounters,
     out: F,
@@ -123,14 +197,28 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
 
     /// Receiver connection from `p` (medium stack `stack` on the side the
     /// connection leaves into) with scattering factor `f_cos` (1/sr) and path
-    /// amplitude `w` at time `tau`, towards a uniformly chosen element.
-    fn connect(&mut self, p: Vec3<T>, mut stack: MediumStack, w: T, f_cos: T, tau: T, u: f64) {
+    /// amplitude `w` at time `tau`, towards element `e` with estimator weight
+    /// `sel_w` (see [`TraceSettings::receivers`]). `p_bsdf` is the density
+    /// (1/sr) with which the vertex's own continuation sampling would produce the
+    /// connection direction (0 for volume scatterers): an unobstructed connection
+    /// is then MIS-weighted against a direct array hit of that continuation.
+    #[allow(clippy::too_many_arguments)]
+    fn connect(
+        &mut self,
+        p: Vec3<T>,
+        mut stack: MediumStack,
+        w: T,
+        f_cos: T,
+        tau: T,
+        e: usize,
+        sel_w: f64,
+        p_bsdf: f64,
+    ) {
         let st = self.st;
         if f_cos.value() == 0.0 {
             return;
         }
         let n_el = st.n_elements;
-        let e = ((u * n_el as f64) as usize).min(n_el - 1);
         let target = Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
         let v = target - p;
         let r = v.length();
@@ -148,7 +236,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         let mut time = tau;
         let mut origin = p;
         let mut remaining = r;
-        for _ in 0..MAX_CONNECTION_CROSSINGS {
+        for crossing in 0..MAX_CONNECTION_CROSSINGS {
             let medium = *st.medium_of(stack.top());
             let ray = Ray::new(origin, wo);
             self.counters.rays += 1;
@@ -159,7 +247,13 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
                 time += remaining / medium.sound_speed;
                 amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, remaining);
                 let solid = st.element_width * st.elevation * cos_e / (r * r);
-                let a = amp * solid * fd * T::from_f64(n_el as f64);
+                // Unobstructed: the continuation could have hit the element too.
+                let mis = if crossing == 0 && p_bsdf > 0.0 {
+                    power_heuristic(1.0 / (sel_w * solid.value()), p_bsdf)
+                } else {
+                    1.0
+                };
+                let a = amp * solid * fd.scale(sel_w * mis);
                 self.deposit(e, a, time);
                 return;
             };
@@ -233,7 +327,10 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
                 .scatterer_strength
                 .scale(g / (4.0 * core::f64::consts::PI));
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
-            self.connect(q, stack, a_q, f, t_q, ue);
+            let settings = self.settings;
+            for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {
+                self.connect(q, stack, a_q, f, t_q, e, sel_w, 0.0);
+            }
         }
     }
 }
@@ -271,6 +368,7 @@ pub fn trace_path_from<T: Real>(
 ) -> TraceCounters {
     let mut ctx = PathCtx {
         st,
+        settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
         counters: TraceCounters::default(),
         out,
@@ -312,6 +410,12 @@ pub fn trace_path_from<T: Real>(
     let mut time = transmit_delay(xe, st.angles[tx], st.imaging_sound_speed);
     let mut stack = start_stack;
     let mut specular_chain = true;
+    // Density (1/sr) of the continuation sampled at the previous vertex when it
+    // was rough and is the last interaction so far (for the MIS'd direct hit).
+    let mut last_rough: Option<f64> = None;
+    // Rough vertices so far (connections through boundaries cover later
+    // transmissions; see the module docs).
+    let mut rough_vertices = 0u32;
 
     for bounce in 1..=settings.max_bounces + 1 {
         let medium = *st.medium_of(stack.top());
@@ -342,16 +446,33 @@ pub fn trace_path_from<T: Real>(
 
         let Some(hit) = hit.filter(|_| hit_first) else {
             // Step 3b: escape, or arrival at the array plane.
-            if t_array.value().is_finite() && specular_chain && stack.is_empty() {
+            let direct = specular_chain || last_rough.is_some();
+            if t_array.value().is_finite() && direct && stack.is_empty() {
                 let p = r.at(t_array);
                 let pv = p.value();
                 if let Some(e) =
                     element_at(pv[0], pv[1], st.pitch, st.element_width, st.elevation, n_el)
                 {
+                    // After a rough vertex: MIS against its receiver connection
+                    // (density 1/(sel_w·Ω_e) of the element's solid angle).
+                    let mis = match last_rough {
+                        Some(p_b) if !specular_chain => {
+                            let xe = element_x(st.pitch, n_el, e).value();
+                            let ov = origin.value();
+                            let v = [xe - ov[0], -ov[1], -ov[2]];
+                            let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+                            let cos_e = -v[2] / r2.sqrt();
+                            let solid =
+                                st.element_width.value() * st.elevation.value() * cos_e / r2;
+                            let sel_w = settings.receiver_weight(n_el, e);
+                            power_heuristic(p_b, 1.0 / (sel_w * solid))
+                        }
+                        _ => 1.0,
+                    };
                     let fd = receive_directivity(-dir.z, st.main_lobe, st.cutoff);
                     let tau = time + t_array / medium.sound_speed;
                     let a = w
-                        * fd
+                        * fd.scale(mis)
                         * attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, t_array);
                     ctx.deposit(e, a, tau);
                 }
@@ -386,19 +507,26 @@ pub fn trace_path_from<T: Real>(
         // Step 5a: receiver connection from a rough interface.
         if iface.alpha.value() >= SMOOTH_ALPHA {
             let ue = sampler.uniform(bounce, dim::ELEMENT);
-            let n_el_t = st.n_elements;
-            let e = ((ue * n_el_t as f64) as usize).min(n_el_t - 1);
-            let target = Vec3::new(element_x(st.pitch, n_el_t, e), T::zero(), T::zero());
-            let wo = (target - hit.point).normalize();
-            let f_cos = iface.eval(wi, wo, n_inc);
-            if f_cos.value() != 0.0 {
-                // The connection leaves into the incident medium (reflection) or
-                // the other one (transmission).
-                let mut cstack = stack;
-                if wo.dot(n_inc).value() < 0.0 {
-                    cstack.cross(hit.object, entering);
+            for (e, sel_w) in settings.receivers(n_el, ue) {
+                let target = Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
+                let wo = (target - hit.point).normalize();
+                if rough_vertices > 0 && wo.dot(n_inc).value() < 0.0 {
+                    // Transmission-side arrival after an earlier rough vertex:
+                    // already counted by that vertex's connection through this
+                    // boundary (module docs, "Double counting").
+                    continue;
                 }
-                ctx.connect(hit.point, cstack, w, f_cos, time, ue);
+                let f_cos = iface.eval(wi, wo, n_inc);
+                if f_cos.value() != 0.0 {
+                    // The connection leaves into the incident medium (reflection)
+                    // or the other one (transmission).
+                    let mut cstack = stack;
+                    if wo.dot(n_inc).value() < 0.0 {
+                        cstack.cross(hit.object, entering);
+                    }
+                    let p_b = iface.pdf(wi, wo, n_inc);
+                    ctx.connect(hit.point, cstack, w, f_cos, time, e, sel_w, p_b);
+                }
             }
         }
 
@@ -415,6 +543,11 @@ pub fn trace_path_from<T: Real>(
         w *= s.weight;
         if !w.is_finite() || w.value() == 0.0 {
             break;
+        }
+        last_rough = (!s.specular && (s.reflected || rough_vertices == 0))
+            .then(|| iface.pdf(wi, s.wo, n_inc));
+        if !s.specular {
+            rough_vertices += 1;
         }
         dir = s.wo;
         specular_chain &= s.specular;

@@ -76,6 +76,16 @@
 //!   as noise, about −6 dB in the cylinder's lumen at 200 rays/element against
 //!   −59 dB for the bundle). Emission points cover the element face
 //!   (`element_width_m × elevation_m`) in both.
+//! - **Receivers** (`acquisition.receivers_per_event`): every rough
+//!   interaction and volume scatterer connects to **all** elements by default
+//!   (a deterministic sum, weight 1), so each event is a focused point in the
+//!   delay-and-sum image; `K < N_e` draws one element per stratum of `N_e/K`
+//!   (weight `N_e/K`), `K = 1` is the paper's single uniform choice (weight
+//!   `N_e`). Connections are MIS-combined with direct array hits of the sampled
+//!   continuation ([`integrator`], "Double counting and MIS").
+//! - **Memory**: deposits are splatted as they are made into per-(transmit,
+//!   16-element block) buffers summed in block order ([`mod@render`]); nothing
+//!   grows with the ray count, and results are bit-identical for any thread count.
 //! - **Gradients**: every continuous quantity is computed in `T` from the lifted
 //!   scene; sampling decisions use values; probabilities are detached; visibility
 //!   changes (which surface is hit, which element a ray lands on) carry no
@@ -91,12 +101,11 @@ pub mod effects;
 pub mod fresnel;
 pub mod ggx;
 pub mod integrator;
-pub mod mesh;
 pub mod probe;
 pub mod render;
 pub mod rng;
 pub mod scene;
 
 pub use integrator::{trace_path, Deposit, TraceSettings};
-pub use render::{render, render_lifted, trace_all, RenderOptions, RenderStats};
+pub use render::{render, render_lifted, trace_all, trace_block, RenderOptions, RenderStats};
 pub use scene::{Scene, SceneError, SceneT};

@@ -1,11 +1,15 @@
 //! Rendering channel data: parallel, reproducible accumulation of deposits.
 //!
-//! Work is cut into fixed chunks, one per (transmit, emitting element); rayon runs
-//! them in any order on any number of threads, each chunk returns its deposits
-//! in path order, and the chunks are splatted in a fixed order (transmit-major,
-//! then element, then ray). Random numbers are keyed by the path
-//! ([`crate::rng`]), never by thread. So 1 thread and many give **bit-identical**
-//! channel data.
+//! Work is cut into fixed chunks, one per (transmit, block of
+//! [`ELEMENT_BLOCK`] emitting elements), independent of the thread count.
+//! Transmits are processed one after another; the blocks of a transmit run in
+//! parallel (rayon, any order, any number of threads), each **splatting its
+//! deposits on the fly** into its own buffer of the transmit's records (paths in
+//! order: element, then ray), and the block buffers are summed in block order.
+//! Random numbers are keyed by the path ([`crate::rng`]), never by thread. So 1
+//! thread and many give **bit-identical** channel data, and memory is
+//! `O(channel data)`: at most `⌈N_e/ELEMENT_BLOCK⌉` transmit-sized buffers live
+//! at once, whatever the number of rays or deposits.
 //!
 //! Sample grid: `t0_s = 0` on the clock of CONTRACT §1 (sample 0 is the instant the
 //! plane wavefront passes the array centre); `n_samples = ⌈f_s·(2·max_depth/c +
@@ -33,7 +37,14 @@ pub struct RenderOptions {
     /// Skip the pulse convolution: the data is the linearly splatted impulse
     /// train `Σ a_k δ(t − τ_k)` (for tests and for gradient replays).
     pub impulse_only: bool,
+    /// Override of `acquisition.receivers_per_event` (`Some(1)`: the paper's
+    /// single uniformly chosen receiver per interaction).
+    pub receivers_per_event: Option<usize>,
 }
+
+/// Emitting elements per work chunk (fixed, so the chunking and hence the
+/// floating-point summation order never depend on the thread count).
+pub const ELEMENT_BLOCK: usize = 16;
 
 /// Work and speed of a render.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -67,7 +78,8 @@ pub fn sample_grid(scene: &Scene) -> (usize, f64) {
     ((dur * fs).ceil() as usize + 1, 0.0)
 }
 
-fn settings(scene: &Scene, opts: &RenderOptions) -> TraceSettings {
+/// The trace settings of a render: the scene's, with `opts`' overrides.
+pub fn settings(scene: &Scene, opts: &RenderOptions) -> TraceSettings {
     TraceSettings {
         seed: opts.seed.unwrap_or(scene.acquisition.seed),
         max_bounces: scene.acquisition.max_bounces,
@@ -75,10 +87,14 @@ fn settings(scene: &Scene, opts: &RenderOptions) -> TraceSettings {
             .rays_per_element
             .unwrap_or(scene.acquisition.rays_per_element)
             .max(1),
+        receivers_per_event: opts
+            .receivers_per_event
+            .or(scene.acquisition.receivers_per_event)
+            .unwrap_or(0),
     }
 }
 
-fn in_pool<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> R {
+pub(crate) fn in_pool<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> R {
     match threads {
         Some(n) => match rayon::ThreadPoolBuilder::new()
             .num_threads(n.max(1))
@@ -91,8 +107,11 @@ fn in_pool<R: Send>(threads: Option<usize>, f: impl FnOnce() -> R + Send) -> R {
     }
 }
 
-/// Trace every path of the scene in `T`: the deposits of each (transmit, element)
-/// chunk, chunks in the fixed order `tx·N_e + el`, plus the work counters.
+/// Trace every path of the scene in `T` and **keep** the deposits of each
+/// (transmit, element) chunk, chunks in the fixed order `tx·N_e + el`, plus the
+/// work counters. Memory grows with the number of deposits (×`N_e` per
+/// interaction with all-receiver connections): for tests and diagnostics at
+/// small ray counts only; [`render_lifted`] splats on the fly.
 pub fn trace_all<T: Real>(
     scene: &Scene,
     st: &SceneT<T>,
@@ -129,9 +148,38 @@ pub fn trace_all<T: Real>(
     (out, total, paths)
 }
 
+/// The chunks of one transmit: ranges of emitting elements (see the module docs).
+pub fn element_blocks(n_el: usize) -> Vec<std::ops::Range<usize>> {
+    (0..n_el.div_ceil(ELEMENT_BLOCK))
+        .map(|b| b * ELEMENT_BLOCK..((b + 1) * ELEMENT_BLOCK).min(n_el))
+        .collect()
+}
+
+/// Trace the paths of transmit `tx` emitted by elements `els` (element-major,
+/// then ray), calling `out` for every deposit.
+pub fn trace_block<T: Real>(
+    st: &SceneT<T>,
+    s: &TraceSettings,
+    tx: usize,
+    els: std::ops::Range<usize>,
+    mut out: impl FnMut(Deposit<T>),
+) -> TraceCounters {
+    let mut cnt = TraceCounters::default();
+    for el in els {
+        let stack = element_stack(st, el);
+        for ray in 0..s.rays_per_element {
+            let k = trace_path_from(st, s, tx, el, ray as u32, stack, &mut out);
+            cnt.rays += k.rays;
+            cnt.deposits += k.deposits;
+        }
+    }
+    cnt
+}
+
 /// Render the lifted scene in `T`: samples in C order `[tx, el, sample]`, the
 /// number of samples per record, and the stats. This is the generic tracer the
-/// `f64` [`render`] and the gradient code share.
+/// `f64` [`render`] and the gradient code share. Deposits are splatted as they
+/// are made (module docs): memory does not grow with the ray count.
 pub fn render_lifted<T: Real>(
     scene: &Scene,
     st: &SceneT<T>,
@@ -139,42 +187,51 @@ pub fn render_lifted<T: Real>(
 ) -> (Vec<T>, usize, RenderStats) {
     let start = Instant::now();
     let (n_samples, t0) = sample_grid(scene);
-    let (chunks, counters, paths) = trace_all(scene, st, opts);
+    let s = settings(scene, opts);
     let n_el = st.n_elements;
     let n_tx = st.angles.len();
     let fs = st.fs;
-    let mut impulses = vec![T::zero(); n_tx * n_el * n_samples];
-    // Splat in the fixed chunk order; transmits are disjoint, so in parallel.
-    in_pool(opts.threads, || {
-        impulses
-            .par_chunks_mut(n_el * n_samples)
-            .enumerate()
-            .for_each(|(tx, buf)| {
-                for chunk in &chunks[tx * n_el..(tx + 1) * n_el] {
-                    for d in chunk {
+    let rec_len = n_el * n_samples;
+    let blocks = element_blocks(n_el);
+    let taps = (!opts.impulse_only).then(|| {
+        usray_signal::pulse::pulse_taps(fs, scene.probe.center_frequency_hz, scene.probe.cycles)
+    });
+    // One pool for the whole render (transmits in turn, blocks in parallel).
+    let (samples, counters) = in_pool(opts.threads, || {
+        let mut impulses = vec![T::zero(); n_tx * rec_len];
+        let mut counters = TraceCounters::default();
+        for (tx, out) in impulses.chunks_mut(rec_len).enumerate() {
+            let parts: Vec<(Vec<T>, TraceCounters)> = blocks
+                .par_iter()
+                .map(|els| {
+                    let mut buf = vec![T::zero(); rec_len];
+                    let cnt = trace_block(st, &s, tx, els.clone(), |d| {
                         let e = d.element as usize;
                         let rec = &mut buf[e * n_samples..(e + 1) * n_samples];
                         crate::deposit::splat(rec, t0, fs, d.time, d.amplitude);
-                    }
+                    });
+                    (buf, cnt)
+                })
+                .collect();
+            // Fixed-order reduction: block 0, 1, 2, …
+            for (buf, cnt) in parts {
+                counters.rays += cnt.rays;
+                counters.deposits += cnt.deposits;
+                for (o, v) in out.iter_mut().zip(buf) {
+                    *o += v;
                 }
-            });
-    });
-    let samples = if opts.impulse_only {
-        impulses
-    } else {
-        let taps = usray_signal::pulse::pulse_taps(
-            fs,
-            scene.probe.center_frequency_hz,
-            scene.probe.cycles,
-        );
+            }
+        }
+        let Some(taps) = taps else {
+            return (impulses, counters);
+        };
         let mut out = vec![T::zero(); impulses.len()];
-        in_pool(opts.threads, || {
-            out.par_chunks_mut(n_samples)
-                .zip(impulses.par_chunks(n_samples))
-                .for_each(|(y, x)| crate::deposit::convolve(x, &taps, y));
-        });
-        out
-    };
+        out.par_chunks_mut(n_samples)
+            .zip(impulses.par_chunks(n_samples))
+            .for_each(|(y, x)| crate::deposit::convolve(x, &taps, y));
+        (out, counters)
+    });
+    let paths = (n_tx * n_el * s.rays_per_element) as u64;
     let seconds = start.elapsed().as_secs_f64();
     let stats = RenderStats {
         rays_traced: counters.rays,

@@ -63,7 +63,7 @@ fn speckle_text(density: f64, strength: f64) -> String {
         "{}\n[materials.tissue]\nimpedance_mrayl = 1.5\nsound_speed_m_s = 1540.0\n\
          scatterer_density_per_mm3 = {density}\nscatterer_strength = {strength}\n\n\
          [[objects]]\nname = \"block\"\nshape = \"slab\"\nz_top_m = 0.008\nz_bottom_m = 0.016\nmaterial = \"tissue\"\n",
-        header(64, 0.27e-3, "[0.0]", 200, 2)
+        header(64, 0.27e-3, "[0.0]", 50, 2)
     )
 }
 
@@ -98,9 +98,10 @@ fn volume_scattering_makes_a_fixed_speckle_pattern() {
     assert!(inside > 10.0 * above.max(1e-300));
     // Same pattern for another seed: correlation of the envelopes inside the block.
     // Measured, not asserted: with cosine-lobe emission the coherent part of each
-    // scatterer's echo is a small share of its Monte Carlo sum (0.04 at 200
-    // rays/element, 0.10 at 3000), so the pattern emerges only slowly with the ray
-    // count. The field itself is fixed: see `scatterer_field_is_fixed`.
+    // scatterer's echo is a small share of its Monte Carlo sum (correlation 0.15
+    // at 50 rays/element with every scatterer connected to every element), so
+    // the pattern emerges only slowly with the ray count. The field itself is
+    // fixed: see `scatterer_field_is_fixed`.
     let va: Vec<f64> = a[25..95].iter().flatten().cloned().collect();
     let vb: Vec<f64> = b[25..95].iter().flatten().cloned().collect();
     let corr = pearson(&va, &vb);
@@ -108,10 +109,11 @@ fn volume_scattering_makes_a_fixed_speckle_pattern() {
     assert!(corr.is_finite());
     // With plane-wave emission every scatterer sees one coherent arrival, and the
     // pattern is fixed: stated threshold 0.8 on the envelope correlation
-    // (measured 0.46 at 200 rays/element, 0.86 at 1000).
+    // (measured 0.94 at 100 rays/element with all-receiver connections; with
+    // one uniformly chosen receiver per event it was 0.46 at 200, 0.86 at 1000).
     let pw = text
         .replace("seed = 1\n", "seed = 1\nemission = \"plane_wave\"\n")
-        .replace("rays_per_element = 200", "rays_per_element = 1000");
+        .replace("rays_per_element = 50", "rays_per_element = 100");
     let (_, a) = render_env(&pw, 1);
     let (_, b) = render_env(&pw, 2);
     let va: Vec<f64> = a[25..95].iter().flatten().cloned().collect();

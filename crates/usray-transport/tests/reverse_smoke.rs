@@ -19,6 +19,7 @@ fn functional<T: Real>(scene: &Scene, st: &usray_transport::SceneT<T>) -> T {
         seed: 3,
         max_bounces: scene.acquisition.max_bounces,
         rays_per_element: 1,
+        receivers_per_event: 0,
     };
     let mut acc = T::zero();
     for el in (0..scene.probe.n_elements).step_by(8) {

@@ -79,3 +79,14 @@ fn set_checks_paths_and_values() {
         assert_eq!(s.get(&p).unwrap(), v);
     }
 }
+
+#[test]
+fn missing_scene_file_names_the_path_without_a_key() {
+    let e = Scene::load("/nonexistent/dir/scene.toml").unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with("/nonexistent/dir/scene.toml: cannot read the scene file: "),
+        "{msg}"
+    );
+    assert!(!msg.contains("key"), "{msg}");
+}

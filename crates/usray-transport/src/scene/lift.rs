@@ -9,7 +9,7 @@ use usray_geometry::shapes::half_space::HalfSpace;
 use usray_geometry::shapes::hollow_cylinder::HollowCylinder;
 use usray_geometry::shapes::slab::Slab;
 use usray_geometry::shapes::sphere::Sphere;
-use usray_geometry::{Geometry, Vec3};
+use usray_geometry::{Geometry, MeshInstance, TriangleMesh, Vec3};
 
 /// Acoustic properties of one medium, in `T`.
 #[derive(Clone, Copy, Debug)]
@@ -99,8 +99,39 @@ impl Scene {
     ///     .unwrap();
     /// assert_eq!(st.objects.len(), 1);
     /// ```
-    pub fn lift<T: Real>(
+    pub fn lift<T: Real>(&self, seed: impl FnMut(&str, f64) -> T) -> Result<SceneT<T>, SceneError> {
+        self.lift_with(None, seed)
+    }
+
+    /// The placed mesh of every mesh object (index = object index; `None` for
+    /// other shapes), in `f64`: OBJ read and BVH built once, for
+    /// [`Scene::lift_with`].
+    pub fn mesh_instances(&self) -> Result<Vec<Option<MeshInstance<f64>>>, SceneError> {
+        let mut out = Vec::with_capacity(self.objects.len());
+        for o in &self.objects {
+            out.push(match o.shape {
+                ShapeKind::Mesh => {
+                    let mesh = load_mesh(self, o)?;
+                    let tf = mesh_transform::<f64>(o, &|leaf| {
+                        self.get(&format!("objects.{}.{leaf}", o.name))
+                            .unwrap_or(0.0)
+                    });
+                    Some(MeshInstance::new(mesh, tf).map_err(|e| {
+                        SceneError::new(&self.source, format!("objects.{}", o.name), e.to_string())
+                    })?)
+                }
+                _ => None,
+            });
+        }
+        Ok(out)
+    }
+
+    /// [`Scene::lift`] reusing meshes placed by [`Scene::mesh_instances`] (no file
+    /// read, no BVH build: cheap enough to lift per path in reverse mode). The
+    /// parameters' values must be the ones the instances were built with.
+    pub fn lift_with<T: Real>(
         &self,
+        meshes: Option<&[Option<MeshInstance<f64>>]>,
         mut seed: impl FnMut(&str, f64) -> T,
     ) -> Result<SceneT<T>, SceneError> {
         let mut vals: HashMap<String, T> = HashMap::new();
@@ -134,7 +165,7 @@ impl Scene {
         let deg = T::from_f64(core::f64::consts::PI / 180.0);
         let mut geometry = Geometry::new();
         let mut objects = Vec::new();
-        for o in &self.objects {
+        for (oi, o) in self.objects.iter().enumerate() {
             let k = |leaf: &str| get(&format!("objects.{}.{leaf}", o.name));
             let center = Vec3::new(k("center_m.0"), k("center_m.1"), k("center_m.2"));
             let gerr = |e: &dyn std::fmt::Display| {
@@ -157,22 +188,11 @@ impl Scene {
                     geometry.add(HalfSpace::new(center, n.normalize()))
                 }
                 ShapeKind::Mesh => {
-                    let mesh = crate::mesh::load_mesh(self, o)?;
-                    let rot = match o.rotation_deg {
-                        Some(_) => Vec3::new(
-                            k("rotation_deg.0") * deg,
-                            k("rotation_deg.1") * deg,
-                            k("rotation_deg.2") * deg,
-                        ),
-                        None => Vec3::zero(),
+                    let tf = mesh_transform::<T>(o, &k);
+                    let inst = match meshes.and_then(|m| m.get(oi)).and_then(Option::as_ref) {
+                        Some(placed) => placed.with_transform(tf),
+                        None => MeshInstance::new(load_mesh(self, o)?, tf).map_err(|e| gerr(&e))?,
                     };
-                    let s = match o.scale {
-                        Some(_) => k("scale"),
-                        None => T::one(),
-                    };
-                    let tf = usray_geometry::Transform::from_euler(center, rot, Vec3::new(s, s, s));
-                    let inst = usray_geometry::MeshInstance::new(Arc::clone(&mesh), tf)
-                        .map_err(|e| gerr(&e))?;
                     geometry.add(inst)
                 }
             };
@@ -245,4 +265,43 @@ impl Scene {
             None => usray_ad::Dual::from_f64(v),
         })
     }
+}
+
+/// The object → world transform of a mesh object: `center_m`, `rotation_deg`
+/// (Euler, degrees), uniform `scale`; `k(leaf)` reads the object's parameters.
+fn mesh_transform<T: Real>(
+    o: &super::Object,
+    k: &dyn Fn(&str) -> T,
+) -> usray_geometry::Transform<T> {
+    let deg = T::from_f64(core::f64::consts::PI / 180.0);
+    let center = Vec3::new(k("center_m.0"), k("center_m.1"), k("center_m.2"));
+    let rot = match o.rotation_deg {
+        Some(_) => Vec3::new(
+            k("rotation_deg.0") * deg,
+            k("rotation_deg.1") * deg,
+            k("rotation_deg.2") * deg,
+        ),
+        None => Vec3::zero(),
+    };
+    let s = match o.scale {
+        Some(_) => k("scale"),
+        None => T::one(),
+    };
+    usray_geometry::Transform::from_euler(center, rot, Vec3::new(s, s, s))
+}
+
+/// Read a mesh object's OBJ file (path relative to the scene file) with
+/// `usray_geometry::obj::load_obj` (triangles only) and orient its triangles
+/// outward. Errors name the object's `path` key and the file.
+fn load_mesh(scene: &Scene, o: &super::Object) -> Result<Arc<TriangleMesh>, SceneError> {
+    let key = format!("objects.{}.path", o.name);
+    let err = |m: String| SceneError::new(&scene.source, key.clone(), m);
+    let rel = o
+        .path
+        .as_deref()
+        .ok_or_else(|| err("required for shape mesh".into()))?;
+    let full = scene.base_dir.join(rel);
+    let mut mesh = usray_geometry::obj::load_obj(&full).map_err(|e| err(e.to_string()))?;
+    mesh.orient_outward();
+    Ok(Arc::new(mesh))
 }

@@ -18,17 +18,31 @@ pub use schema::{Acquisition, Emission, Imaging, Material, Medium, Object, Probe
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// An error in a scene: which file, which key, what was expected.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{file}: key `{key}`: {message}")]
+/// An error in a scene: which file, which key, what was expected. Displayed as
+/// ``FILE: key `KEY`: MESSAGE``, or `FILE: MESSAGE` when no key is involved
+/// (an unreadable scene file).
+#[derive(Debug, Clone, PartialEq)]
 pub struct SceneError {
     /// The scene file (or `<memory>` for a scene built from a string).
     pub file: String,
-    /// The dotted key (`probe.pitch_m`, `objects.cylinder.radius_m`, …).
+    /// The dotted key (`probe.pitch_m`, `objects.cylinder.radius_m`, …); empty
+    /// when the error is about the file as a whole.
     pub key: String,
     /// What was wrong and what was expected.
     pub message: String,
 }
+
+impl std::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.key.is_empty() {
+            write!(f, "{}: {}", self.file, self.message)
+        } else {
+            write!(f, "{}: key `{}`: {}", self.file, self.key, self.message)
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
 
 impl SceneError {
     pub(crate) fn new(file: &str, key: impl Into<String>, message: impl Into<String>) -> Self {
@@ -78,7 +92,7 @@ impl Scene {
         let path = path.as_ref();
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path)
-            .map_err(|e| SceneError::new(&file, "<file>", format!("cannot read: {e}")))?;
+            .map_err(|e| SceneError::new(&file, "", format!("cannot read the scene file: {e}")))?;
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
         Self::from_toml_str(&text, &file, base)
     }

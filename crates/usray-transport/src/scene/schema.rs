@@ -68,6 +68,12 @@ pub struct Acquisition {
     /// How primary ray directions are chosen (default `"cosine"`).
     #[serde(default)]
     pub emission: Emission,
+    /// Receivers each scattering event connects to (default: all `n_elements`,
+    /// a deterministic sum with weight 1). `K < n_elements` draws one element per
+    /// stratum of `n_elements/K` (weight `n_elements/K`); `1` is the paper's
+    /// single uniformly chosen element (weight `n_elements`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub receivers_per_event: Option<usize>,
 }
 
 /// Emission model of the primary rays (`acquisition.emission`).
@@ -282,6 +288,12 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     pos("acquisition.max_depth_m", a.max_depth_m)?;
     if a.rays_per_element == 0 {
         return err("acquisition.rays_per_element", "expected at least 1 ray");
+    }
+    if a.receivers_per_event == Some(0) {
+        return err(
+            "acquisition.receivers_per_event",
+            "expected at least 1 receiver (omit the key for all elements)",
+        );
     }
     // 5. Imaging.
     let im = &s.imaging;
