@@ -1,7 +1,9 @@
 //! Rays per second of the geometry layer on one thread, for comparison with the
-//! whole tracer: bare `obvhs` traversal ([`MeshBvh::traverse_f32`]), the `f64`
-//! closest-hit query ([`MeshBvh::closest_hit`]), [`Geometry::intersect`] in `f64`
-//! and in `Dual<4>` (mesh and analytic tube).
+//! whole tracer: bare `obvhs` traversal ([`MeshBvh::traverse_f32`]), the
+//! closest-hit query ([`MeshBvh::closest_hit`], and without its `f32` candidate
+//! filter, [`MeshBvh::closest_hit_f64_tests`]), [`Geometry::intersect`] in `f64`
+//! and in `Dual<4>` (mesh and analytic tube); for the meshes also rays leaving
+//! the surface (like the tracer's secondary rays).
 //!
 //! `cargo run --release -p usray-geometry --example bench_traversal`
 
@@ -75,9 +77,53 @@ fn main() {
                 })
                 .count()
         });
-        rate("MeshBvh::closest_hit (f32 BVH, f64 tests)", n, || {
+        rate("MeshBvh::closest_hit (f32 filter, f64 tests)", n, || {
             rs.iter()
                 .filter(|(o, d)| black_box(inst.bvh.closest_hit(*o, *d, 1e-9, 1.0)).is_some())
+                .count()
+        });
+        rate("MeshBvh::closest_hit_f64_tests (no filter)", n, || {
+            rs.iter()
+                .filter(|(o, d)| {
+                    black_box(inst.bvh.closest_hit_f64_tests(*o, *d, 1e-9, 1.0)).is_some()
+                })
+                .count()
+        });
+        // Rays leaving the surface (the tracer's secondary and connection rays):
+        // from the hit points of the primary rays, in a scrambled direction.
+        let sec: Vec<([f64; 3], [f64; 3])> = rs
+            .iter()
+            .filter_map(|(o, d)| {
+                let h = inst.bvh.closest_hit(*o, *d, 1e-9, 1.0)?;
+                let p = [0, 1, 2].map(|k| o[k] + h.t * d[k]);
+                let q = [d[1] - 0.3 * d[0], d[2] + 0.2, -d[0] + 0.5 * d[1]];
+                let l = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt();
+                Some((p, q.map(|x| x / l)))
+            })
+            .collect();
+        let m = sec.len();
+        rate("secondary: MeshBvh::traverse_f32 (bare obvhs)", m, || {
+            sec.iter()
+                .filter(|(o, d)| {
+                    black_box(inst.bvh.traverse_f32(
+                        o.map(|x| x as f32),
+                        d.map(|x| x as f32),
+                        f32::INFINITY,
+                    ))
+                    .is_some()
+                })
+                .count()
+        });
+        rate("secondary: MeshBvh::closest_hit", m, || {
+            sec.iter()
+                .filter(|(o, d)| black_box(inst.bvh.closest_hit(*o, *d, 1e-9, 1.0)).is_some())
+                .count()
+        });
+        rate("secondary: MeshBvh::closest_hit_f64_tests", m, || {
+            sec.iter()
+                .filter(|(o, d)| {
+                    black_box(inst.bvh.closest_hit_f64_tests(*o, *d, 1e-9, 1.0)).is_some()
+                })
                 .count()
         });
         let mut g = Geometry::<f64>::new();

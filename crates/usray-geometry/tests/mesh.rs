@@ -248,6 +248,145 @@ fn bvh_closest_hit_equals_brute_force_on_valve() {
     assert!(f32_same * 100 >= hits * 99, "{f32_same}/{hits}");
 }
 
+/// Brute-force `f64` closest hit with `t ∈ [t_min, t_max]` and the number of
+/// crossings with `t > t_min`, over every non-degenerate triangle.
+fn brute_force_full(
+    inst: &MeshInstance<f64>,
+    o: [f64; 3],
+    d: [f64; 3],
+    t_min: f64,
+    t_max: f64,
+) -> (Option<(f64, u32)>, usize) {
+    let (o, d) = (Vec3::from(o), Vec3::from(d));
+    let mut best: Option<(f64, u32)> = None;
+    let mut crossings = 0;
+    for i in 0..inst.mesh.triangles.len() {
+        let [a, b, c] = inst.world_corners(i as u32);
+        if (b - a).cross(c - a).length() == 0.0 {
+            continue;
+        }
+        if let Some((t, u, v)) = moller_trumbore(o, d, a, b, c) {
+            if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t.is_finite() {
+                crossings += usize::from(t > t_min);
+                if t >= t_min && t <= t_max && best.is_none_or(|bb| t < bb.0) {
+                    best = Some((t, i as u32));
+                }
+            }
+        }
+    }
+    (best, crossings)
+}
+
+fn unit(v: [f64; 3]) -> [f64; 3] {
+    let l = norm(v);
+    [v[0] / l, v[1] / l, v[2] / l]
+}
+
+/// The `f32` candidate filter of `closest_hit` / `count_crossings` must never
+/// change a result: on the rays that stress it — starting on a leaflet (the
+/// tracer's secondary and connection rays), grazing a triangle's plane, aimed at
+/// vertices and edges, from near and far — the hit equals both the unfiltered
+/// traversal (`closest_hit_f64_tests`, bit for bit) and the brute-force `f64`
+/// search over all triangles, and crossing counts equal brute force.
+#[test]
+fn f32_candidate_filter_never_changes_the_f64_result() {
+    let valve = valve_leaflets(0.5, &ValveParams::default());
+    let w_valve = Transform::from_euler(
+        Vec3::new(0.001, -0.002, 0.012),
+        Vec3::new(0.4, -0.3, 0.2),
+        Vec3::new(1.0, 1.0, 1.0),
+    );
+    let sphere = TriangleMesh::icosphere(0.008, 3);
+    let w_sphere = Transform::from_translation(Vec3::new(0.0, 0.0, 0.03));
+    let mut rng = Rng(2026);
+    let mut stats = [0usize; 4]; // hits per family
+    for (mesh, w) in [(valve, w_valve), (sphere, w_sphere)] {
+        let inst = MeshInstance::new(Arc::new(mesh), w).unwrap();
+        let n_tri = inst.mesh.triangles.len();
+        for k in 0..6000 {
+            let family = k % 4;
+            let tri = (rng.next() * n_tri as f64) as u32;
+            let [a, b, c] = inst.world_corners(tri).map(|v| v.value());
+            let (mut u, mut v) = (rng.next(), rng.next());
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            // Sometimes exactly on a vertex or an edge.
+            match k % 7 {
+                0 => (u, v) = (0.0, 0.0),
+                1 => (u, v) = (1.0, 0.0),
+                2 => v = 1.0 - u,
+                3 => u = 0.0,
+                _ => {}
+            }
+            let p: [f64; 3] = core::array::from_fn(|i| (1.0 - u - v) * a[i] + u * b[i] + v * c[i]);
+            let rand_dir = |rng: &mut Rng| {
+                unit([
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                ])
+            };
+            let n = unit({
+                let (e1, e2) = (sub(b, a), sub(c, a));
+                [
+                    e1[1] * e2[2] - e1[2] * e2[1],
+                    e1[2] * e2[0] - e1[0] * e2[2],
+                    e1[0] * e2[1] - e1[1] * e2[0],
+                ]
+            });
+            let (o, d) = match family {
+                // Starting on the surface, any direction.
+                0 => (p, rand_dir(&mut rng)),
+                // Grazing: along the triangle's plane, from just off it.
+                1 => {
+                    let along = unit(sub(b, a));
+                    let tilt = rng.range(-1e-6, 1e-6);
+                    let d = unit(core::array::from_fn(|i| along[i] + tilt * n[i]));
+                    let off = rng.range(-1e-9, 1e-9);
+                    let o = core::array::from_fn(|i| p[i] - 0.002 * d[i] + off * n[i]);
+                    (o, d)
+                }
+                // Aimed at the point (vertex, edge or interior) from the probe.
+                2 => {
+                    let o = [rng.range(-0.02, 0.02), rng.range(-0.003, 0.003), 0.0];
+                    (o, unit(sub(p, o)))
+                }
+                // Aimed at it from very close (inside the 0.1 mm obvhs floor).
+                _ => {
+                    let d = rand_dir(&mut rng);
+                    let back = 10f64.powf(rng.range(-9.0, -3.5));
+                    (core::array::from_fn(|i| p[i] - back * d[i]), d)
+                }
+            };
+            let t_min = if family == 0 { 1e-9 } else { 0.0 };
+            let t_max = if k % 3 == 0 {
+                rng.range(0.0, 0.02)
+            } else {
+                1.0
+            };
+            let got = inst.bvh.closest_hit(o, d, t_min, t_max);
+            let reference = inst.bvh.closest_hit_f64_tests(o, d, t_min, t_max);
+            assert_eq!(got, reference, "filter changed the hit: o {o:?} d {d:?}");
+            let (bf, crossings) = brute_force_full(&inst, o, d, t_min, t_max);
+            match (got, bf) {
+                (None, None) => {}
+                (Some(h), Some((t, _))) => {
+                    assert_eq!(h.t, t, "BVH vs brute force: o {o:?} d {d:?}");
+                    stats[family] += 1;
+                }
+                (g, b) => panic!("BVH {g:?} vs brute force {b:?}: o {o:?} d {d:?}"),
+            }
+            assert_eq!(
+                inst.bvh.count_crossings(o, d, t_min),
+                crossings,
+                "crossings: o {o:?} d {d:?}"
+            );
+        }
+    }
+    assert!(stats.iter().all(|&n| n > 300), "hits per family {stats:?}");
+}
+
 #[test]
 fn mesh_transform_derivatives() {
     // A single upward-facing square (two triangles) is not closed, but hit

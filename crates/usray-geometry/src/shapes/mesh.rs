@@ -333,12 +333,102 @@ pub struct MeshBvh {
     prim_world: Vec<[[f64; 3]; 3]>,
     /// Per BVH primitive: BVH-frame `f32` triangle (bare traversal benchmark).
     prim_f32: Vec<obvhs::triangle::Triangle>,
+    /// Per BVH *slot* (`obvhs` primitive id, i.e. in traversal order, no
+    /// indirection): the BVH-frame `f32` filter data (see [`FilterTri`]).
+    filter: Vec<FilterTri>,
+    /// Largest absolute BVH-frame vertex coordinate (for the filter's error bound).
+    frame_radius: f32,
     /// Diagonal of the world bounds, metres.
     extent: f64,
     /// World point mapped to the BVH-frame origin, metres.
     center: [f64; 3],
     /// BVH-frame units per metre.
     scale: f64,
+}
+
+/// A triangle in the BVH frame, prepared for the conservative `f32` candidate
+/// filter ([`MeshBvh::closest_hit`]): `v0`, the edges `e1 = v0 − v1`,
+/// `e2 = v2 − v0` and `n = e1 × e2`, each computed in `f64` and rounded once to
+/// `f32` (so every component carries a relative error of at most `2⁻²⁴`).
+#[derive(Clone, Copy, Debug)]
+struct FilterTri {
+    v0: Vec3A,
+    e1: Vec3A,
+    e2: Vec3A,
+    n: Vec3A,
+}
+
+/// Unit roundoff of `f32`.
+const U32: f32 = f32::EPSILON * 0.5;
+
+/// Safety factors of the `f32` filter's error bounds over the first-order
+/// forward-error estimates (which are ≈ 60·u·B·L for the edge functions,
+/// ≈ 30·u·L² for the determinant and ≈ 36·u·L²·B for the distance numerator; see
+/// [`FilterTri::may_hit`]).
+const K_EDGE: f32 = 256.0;
+const K_DET: f32 = 128.0;
+const K_T: f32 = 256.0;
+
+impl FilterTri {
+    /// From the three BVH-frame `f64` corners.
+    fn new(q: [[f64; 3]; 3]) -> Self {
+        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let (e1, e2) = (sub(q[0], q[1]), sub(q[2], q[0]));
+        let n = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let f = |a: [f64; 3]| Vec3A::new(a[0] as f32, a[1] as f32, a[2] as f32);
+        Self {
+            v0: f(q[0]),
+            e1: f(e1),
+            e2: f(e2),
+            n: f(n),
+        }
+    }
+
+    /// Conservative `f32` Möller–Trumbore (the formulation of
+    /// `obvhs::triangle::Triangle::intersect`: `c = v0 − o`, `r = d × c`,
+    /// `det = n·d`, `u = r·e2/det`, `v = r·e1/det`, `t = n·c/det`): returns
+    /// `false` only when the **exact** ray (`o`, `d` before rounding to `f32`)
+    /// certainly misses the exact triangle or hits it outside `[t_lo, t_hi]`
+    /// (traversal-ray distances). Every quantity is compared with a forward error
+    /// bound that covers the rounding of the inputs to `f32` and of the
+    /// arithmetic: with `B ≥ |o|∞ + |v0|∞` (`b`, per ray) and `L = max(|e1|∞,
+    /// |e2|∞)`, the edge numerators `r·e` are off by at most ≈ 60·u·B·L, `det`
+    /// by ≈ 30·u·L², `n·c` by ≈ 36·u·L²·B (`u = 2⁻²⁴`); the bounds used are
+    /// several times larger. A near-parallel ray (`|det|` within its error) is
+    /// always passed on. The `f64` test then decides exactly as before, so the
+    /// filter changes speed, never results.
+    // The negated comparisons are deliberate: a NaN must pass the triangle on.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    #[inline(always)]
+    fn may_hit(&self, o: Vec3A, d: Vec3A, b: f32, t_lo: f32, t_hi: f32) -> bool {
+        let l = self.e1.abs().max(self.e2.abs()).max_element();
+        let det = self.n.dot(d);
+        let e_det = K_DET * U32 * l * l;
+        let abs_det = det.abs();
+        if !(abs_det > e_det) {
+            return true; // near-parallel (or NaN): let the f64 test decide
+        }
+        let c = self.v0 - o;
+        let r = d.cross(c);
+        let sg = det.signum();
+        let u = r.dot(self.e2) * sg;
+        let v = r.dot(self.e1) * sg;
+        let e_uv = K_EDGE * U32 * b * l;
+        if u < -e_uv || v < -e_uv || u + v > abs_det + e_det + 2.0 * e_uv {
+            return false;
+        }
+        let tn = self.n.dot(c) * sg;
+        let e_t = K_T * U32 * l * l * b;
+        // Exact det' ∈ [|det| − e_det, |det| + e_det] (> 0), exact n·c ∈ tn ± e_t:
+        // reject only when t = (n·c)/det' is outside [t_lo, t_hi] for all of them.
+        // Written as negated rejections so that a NaN anywhere passes the triangle on.
+        !(tn + e_t < t_lo * abs_det - t_lo.abs() * e_det)
+            && !(tn - e_t > t_hi * abs_det + t_hi.abs() * e_det)
+    }
 }
 
 /// Bounding-box diagonal of a mesh in BVH-frame units (see [`MeshBvh`]).
@@ -406,6 +496,8 @@ impl MeshBvh {
         let mut prim_world = Vec::new();
         let mut prim_f32 = Vec::new();
         let mut aabbs = Vec::new();
+        let mut prim_frame = Vec::new();
+        let mut frame_radius = 0.0_f64;
         for (i, t) in mesh.triangles.iter().enumerate() {
             let c = t.map(|k| world[k as usize]);
             let [a, b, cc] = c.map(Vec3::<f64>::from);
@@ -413,13 +505,16 @@ impl MeshBvh {
             if area2.is_nan() || area2 <= 0.0 || !area2.is_finite() {
                 continue; // degenerate: never hit
             }
-            let v = c.map(|p| {
-                Vec3A::new(
-                    ((p[0] - center[0]) * scale) as f32,
-                    ((p[1] - center[1]) * scale) as f32,
-                    ((p[2] - center[2]) * scale) as f32,
-                )
+            let q = c.map(|p| {
+                [
+                    (p[0] - center[0]) * scale,
+                    (p[1] - center[1]) * scale,
+                    (p[2] - center[2]) * scale,
+                ]
             });
+            let v = q.map(|p| Vec3A::new(p[0] as f32, p[1] as f32, p[2] as f32));
+            frame_radius = q.iter().flatten().fold(frame_radius, |m, x| m.max(x.abs()));
+            prim_frame.push(q);
             let mut bb = Aabb::from_points(&v);
             bb.min -= Vec3A::splat(pad);
             bb.max += Vec3A::splat(pad);
@@ -442,11 +537,22 @@ impl MeshBvh {
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
+        // The filter table in traversal order: `obvhs` hands the callback a slot
+        // index, and this saves the `primitive_indices` indirection per candidate.
+        let filter = bvh
+            .primitive_indices
+            .iter()
+            .map(|&p| FilterTri::new(prim_frame[p as usize]))
+            .collect();
+        // Rounded up, so it bounds every f32 vertex coordinate too.
+        let frame_radius = (frame_radius as f32) * (1.0 + 4.0 * f32::EPSILON);
         Ok(Self {
             bvh,
             prim_triangle,
             prim_world,
             prim_f32,
+            filter,
+            frame_radius,
             extent,
             center,
             scale,
@@ -502,9 +608,71 @@ impl MeshBvh {
         (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t.is_finite()).then_some(t)
     }
 
+    /// World distance → traversal-ray distance rounded *down* a little (the lower
+    /// end of the `f32` filter's range).
+    #[inline]
+    fn to_traversal_t_lo(&self, t: f64) -> f32 {
+        let ts = t * self.scale + BVH_ORIGIN_SHIFT;
+        if ts <= f32::MIN as f64 {
+            f32::NEG_INFINITY
+        } else {
+            let ts = ts as f32;
+            ts - ts.abs() * (8.0 * f32::EPSILON) - 1e-6
+        }
+    }
+
+    /// The per-ray coordinate bound `B` of the `f32` filter ([`FilterTri::may_hit`]).
+    #[inline]
+    fn filter_bound(&self, ray: &obvhs::ray::Ray) -> f32 {
+        ray.origin.abs().max_element() + self.frame_radius
+    }
+
     /// The closest triangle hit with `t` in `[t_min, t_max]` (metres): BVH
-    /// traversal in `f32`, primitive tests in `f64`.
+    /// traversal in `f32`, every candidate triangle first screened by a
+    /// conservative `f32` test in the BVH frame ([`FilterTri::may_hit`], which
+    /// rejects only certain misses and hits certainly outside the current
+    /// `[t_min, best]`), the survivors — normally the winner and the triangle
+    /// the ray starts on — tested in `f64` against the world-space vertices. The
+    /// result is that of the `f64` test over all triangles.
     pub fn closest_hit(
+        &self,
+        origin: [f64; 3],
+        dir: [f64; 3],
+        t_min: f64,
+        t_max: f64,
+    ) -> Option<MeshHit> {
+        let ray = self.f32_ray(origin, dir, t_max)?;
+        let (o, d) = (Vec3::from(origin), Vec3::from(dir));
+        let (o32, d32) = (ray.origin, ray.direction);
+        let b = self.filter_bound(&ray);
+        let t_lo = self.to_traversal_t_lo(t_min);
+        let mut best: Option<MeshHit> = None;
+        let mut rh = RayHit::none();
+        self.bvh.ray_traverse(ray, &mut rh, |r, id| {
+            // `r.tmax` is the traversal distance of the best hit so far (or of
+            // t_max), already rounded up.
+            if !self.filter[id].may_hit(o32, d32, b, t_lo, r.tmax) {
+                return f32::INFINITY;
+            }
+            let prim = self.bvh.primitive_indices[id] as usize;
+            match self.prim_t(prim, o, d) {
+                Some(t) if t >= t_min && t <= t_max && best.is_none_or(|b| t < b.t) => {
+                    best = Some(MeshHit {
+                        t,
+                        triangle: self.prim_triangle[prim],
+                    });
+                    self.to_traversal_t(t)
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        best
+    }
+
+    /// The closest hit by testing every candidate of the traversal in `f64` (no
+    /// `f32` filter): the reference [`MeshBvh::closest_hit`] must agree with, for
+    /// tests and benchmarks.
+    pub fn closest_hit_f64_tests(
         &self,
         origin: [f64; 3],
         dir: [f64; 3],
@@ -531,14 +699,21 @@ impl MeshBvh {
         best
     }
 
-    /// Number of triangle crossings with `t > t_min` along a ray (f64 tests).
+    /// Number of triangle crossings with `t > t_min` along a ray (candidates
+    /// screened by the conservative `f32` filter, counted by the `f64` test).
     pub fn count_crossings(&self, origin: [f64; 3], dir: [f64; 3], t_min: f64) -> usize {
         let Some(ray) = self.f32_ray(origin, dir, f64::INFINITY) else {
             return 0;
         };
         let (o, d) = (Vec3::from(origin), Vec3::from(dir));
+        let (o32, d32) = (ray.origin, ray.direction);
+        let b = self.filter_bound(&ray);
+        let t_lo = self.to_traversal_t_lo(t_min);
         let mut n = 0;
         self.bvh.ray_traverse_anyhit(ray, |_r, id| {
+            if !self.filter[id].may_hit(o32, d32, b, t_lo, f32::INFINITY) {
+                return;
+            }
             let prim = self.bvh.primitive_indices[id] as usize;
             if let Some(t) = self.prim_t(prim, o, d) {
                 if t > t_min {
