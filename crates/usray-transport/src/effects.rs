@@ -21,20 +21,25 @@ const DB_TO_NEPER_AMPLITUDE: f64 = core::f64::consts::LN_10 / 20.0;
 /// `10^(−α·(f_c/1e6)·(100 d)/20)`.
 #[inline]
 pub fn attenuation<T: Real>(alpha_db_cm_mhz: T, fc: T, d: T) -> T {
+    let x = -(alpha_db_cm_mhz * fc * d).scale(1e-6 * 100.0 * DB_TO_NEPER_AMPLITUDE);
     if alpha_db_cm_mhz.value() == 0.0 {
-        return T::one();
+        // exp(x) at x = 0 to first order: value exactly 1, derivative x' (so a
+        // zero attenuation still has its gradient).
+        return T::one() + x;
     }
-    (-(alpha_db_cm_mhz * fc * d).scale(1e-6 * 100.0 * DB_TO_NEPER_AMPLITUDE)).exp()
+    x.exp()
 }
 
 /// Amplitude factor of depth gain `g` dB/cm at time `t` s for imaging speed `c`:
 /// `10^(g·(100·c·t/2)/20)`.
 #[inline]
 pub fn depth_gain<T: Real>(g_db_cm: T, c: T, t: T) -> T {
+    let x = (g_db_cm * c * t).scale(50.0 * DB_TO_NEPER_AMPLITUDE);
     if g_db_cm.value() == 0.0 {
-        return T::one();
+        // Value exactly 1, derivative x' (a zero gain keeps its gradient).
+        return T::one() + x;
     }
-    (g_db_cm * c * t).scale(50.0 * DB_TO_NEPER_AMPLITUDE).exp()
+    x.exp()
 }
 
 /// A fixed field of sub-resolution point scatterers filling a material.

@@ -100,12 +100,14 @@ pub mod deposit;
 pub mod effects;
 pub mod fresnel;
 pub mod ggx;
+pub mod gradient;
 pub mod integrator;
 pub mod probe;
 pub mod render;
 pub mod rng;
 pub mod scene;
 
+pub use gradient::channel_gradient;
 pub use integrator::{trace_path, Deposit, TraceSettings};
 pub use render::{render, render_lifted, trace_all, trace_block, RenderOptions, RenderStats};
 pub use scene::{Scene, SceneError, SceneT};

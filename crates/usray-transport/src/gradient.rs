@@ -1,0 +1,368 @@
+//! The transport gradient: `∂L/∂θ_j = Σ d_channels·∂P/∂θ_j` for named scene
+//! parameters, without a tape the size of the render (`DESIGN.md`).
+//!
+//! # Method
+//! The channel data is `P = s ⋆ Σ_k a_k·δ_lin(t − τ_k)` (linear splat, then the
+//! pulse; [`crate::deposit`]). For `g = d_channels`:
+//! 1. Correlate each record with the pulse taps once: `G = g ⋆ s`
+//!    (`usray_signal::pulse::convolve_vjp`; `G = g` with
+//!    [`RenderOptions::impulse_only`]).
+//! 2. Replay every path with the **same random numbers** as the render with the
+//!    same `opts` (common random numbers: same seed, same chunks) in an AD scalar.
+//!    At each deposit `(e, a, τ)` with splat index `i = ⌊(τ − t0) f_s⌋` and
+//!    fraction `f`: `ā = (1−f)·G[i] + f·G[i+1]`, `τ̄ = a·f_s·(G[i+1] − G[i])`
+//!    (`G` = 0 outside the record), and accumulate `ā·∂a/∂θ + τ̄·∂τ/∂θ`. This is
+//!    exactly the derivative of the forward splat + convolution.
+//! 3. Pulse-shape parameters (`probe.center_frequency_hz`, `probe.cycles`) also
+//!    change the taps: add `Σ_k a_k·[(1−f)·G'[i] + f·G'[i+1]]` with
+//!    `G' = g ⋆ ∂s/∂θ` (derivative taps from `usray_signal::pulse::pulse` in a
+//!    dual). `f_c` also enters the attenuation inside the paths, which step 2
+//!    covers.
+//!
+//! # Mode
+//! Up to [`REVERSE_MIN_PARAMS`]` − 1` parameters: forward [`Dual`] passes of at
+//! most 8 partials each (one replay per pass). From [`REVERSE_MIN_PARAMS`] on:
+//! one replay with a per-path reverse [`Recording`] (the scene is lifted per path
+//! onto the fresh tape, reusing meshes and BVHs placed once,
+//! [`Scene::lift_with`]); the recording lives inside one work chunk, never
+//! around a rayon call. Either way the memory is one path's tape plus one
+//! gradient vector per chunk: nothing grows with the ray count.
+//!
+//! # Determinism
+//! Chunks are those of the render (transmit, block of [`crate::render::ELEMENT_BLOCK`]
+//! emitting elements); each returns its partial gradient, and partials are summed
+//! in chunk order. The result is bit-identical for any thread count.
+
+use crate::integrator::{Deposit, TraceSettings};
+use crate::render::{element_blocks, in_pool, sample_grid, settings, trace_block, RenderOptions};
+use crate::scene::{Scene, SceneError, SceneT};
+use rayon::prelude::*;
+use usray_ad::{Dual, Real, Recording, Var};
+
+/// From this many parameters on, [`channel_gradient`] uses per-path reverse mode
+/// (below: forward duals, `⌈P/8⌉` replays). Measured crossover: see
+/// `docs/performance.md`, section *usray-transport*.
+pub const REVERSE_MIN_PARAMS: usize = 12;
+
+const FC: &str = "probe.center_frequency_hz";
+const CYCLES: &str = "probe.cycles";
+
+/// `∂L/∂θ_j = Σ d_channels·∂P/∂θ_j` for each path in `params`, for the render of
+/// `scene` with `opts` (same seed ⇒ the same random numbers: see the module
+/// docs). `d_channels` is in `ChannelData::samples` layout (`[tx, el, sample]`).
+/// Parameters the transport does not depend on (imaging keys, …) get 0.
+///
+/// Errors: an unknown parameter path (named), or `d_channels` of the wrong
+/// length.
+///
+/// ```
+/// # let text = include_str!("../../../scenes/cylinder.toml");
+/// # let scene = usray_transport::Scene::from_toml_str(text, "cylinder.toml", ".").unwrap();
+/// use usray_transport::{channel_gradient, render, RenderOptions};
+/// let opts = RenderOptions { rays_per_element: Some(2), ..Default::default() };
+/// let (data, _) = render(&scene, &opts).unwrap();
+/// // L = ½‖P‖²: dL/dP = P.
+/// let g = channel_gradient(&scene, &["objects.cylinder.radius_m"], &data.samples, &opts).unwrap();
+/// assert!(g[0].is_finite() && g[0] != 0.0);
+/// assert!(channel_gradient(&scene, &["objects.nope.radius_m"], &data.samples, &opts).is_err());
+/// ```
+pub fn channel_gradient(
+    scene: &Scene,
+    params: &[&str],
+    d_channels: &[f64],
+    opts: &RenderOptions,
+) -> Result<Vec<f64>, SceneError> {
+    for p in params {
+        scene.get(p)?;
+    }
+    let (n_samples, t0) = sample_grid(scene);
+    let n_el = scene.probe.n_elements;
+    let n_tx = scene.acquisition.angles_deg.len();
+    let expected = n_tx * n_el * n_samples;
+    if d_channels.len() != expected {
+        return Err(SceneError::new(
+            &scene.source,
+            "d_channels",
+            format!(
+                "expected {expected} values ({n_tx} transmits × {n_el} elements × {n_samples} samples), found {}",
+                d_channels.len()
+            ),
+        ));
+    }
+    if params.is_empty() {
+        return Ok(Vec::new());
+    }
+    let fs = scene.acquisition.sampling_frequency_hz;
+    let (fc, cycles) = (scene.probe.center_frequency_hz, scene.probe.cycles);
+    // Step 1: G = g ⋆ s, and g ⋆ ∂s/∂f_c, g ⋆ ∂s/∂cycles when either is asked for.
+    let want_pulse = params.iter().any(|p| *p == FC || *p == CYCLES);
+    let corr = |t: &[f64]| -> Vec<f64> {
+        let mut out = vec![0.0; d_channels.len()];
+        in_pool(opts.threads, || {
+            out.par_chunks_mut(n_samples)
+                .zip(d_channels.par_chunks(n_samples))
+                .for_each(|(x, y)| usray_signal::pulse::convolve_vjp(y, t, x));
+        });
+        out
+    };
+    let (g_main, g_pulse): (Vec<f64>, Vec<Vec<f64>>) = if opts.impulse_only {
+        (d_channels.to_vec(), Vec::new())
+    } else {
+        let taps = usray_signal::pulse::pulse_taps(fs, fc, cycles);
+        let main = corr(&taps);
+        let pulse = if want_pulse {
+            let k = (taps.len() / 2) as i64;
+            let dtaps: Vec<[f64; 2]> = (-k..=k)
+                .map(|i| {
+                    usray_signal::pulse::pulse(
+                        Dual::<2>::from_f64(i as f64 / fs),
+                        Dual::variable(fc, 0),
+                        Dual::variable(cycles, 1),
+                    )
+                    .eps
+                })
+                .collect();
+            (0..2)
+                .map(|m| corr(&dtaps.iter().map(|d| d[m]).collect::<Vec<_>>()))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        (main, pulse)
+    };
+    let adj = Adjoint {
+        g: &g_main,
+        g_pulse: &g_pulse,
+        n_samples,
+        t0,
+        fs,
+    };
+    let s = settings(scene, opts);
+    let mut grad = vec![0.0; params.len()];
+    if params.len() >= REVERSE_MIN_PARAMS {
+        reverse_pass(scene, params, &adj, &s, opts, &mut grad)?;
+    } else {
+        for (pass, group) in params.chunks(8).enumerate() {
+            let out = &mut grad[pass * 8..pass * 8 + group.len()];
+            match group.len() {
+                1 => dual_pass::<1>(scene, group, &adj, &s, opts, out)?,
+                2 => dual_pass::<2>(scene, group, &adj, &s, opts, out)?,
+                3 => dual_pass::<3>(scene, group, &adj, &s, opts, out)?,
+                4 => dual_pass::<4>(scene, group, &adj, &s, opts, out)?,
+                5 => dual_pass::<5>(scene, group, &adj, &s, opts, out)?,
+                6 => dual_pass::<6>(scene, group, &adj, &s, opts, out)?,
+                7 => dual_pass::<7>(scene, group, &adj, &s, opts, out)?,
+                _ => dual_pass::<8>(scene, group, &adj, &s, opts, out)?,
+            }
+        }
+    }
+    Ok(grad)
+}
+
+/// The adjoint records and the sample grid.
+struct Adjoint<'a> {
+    /// `G = g ⋆ s`, channel layout.
+    g: &'a [f64],
+    /// `[g ⋆ ∂s/∂f_c, g ⋆ ∂s/∂cycles]` when a pulse-shape parameter is asked
+    /// for (else empty).
+    g_pulse: &'a [Vec<f64>],
+    n_samples: usize,
+    t0: f64,
+    fs: f64,
+}
+
+impl Adjoint<'_> {
+    /// For a deposit of value `a` at time value `tau` on record `rec` (offset of
+    /// the record in channel layout): `(ā, τ̄)` and the pulse terms
+    /// `a·interp(G'_m)(τ)` added into `pulse_acc`. `None` when the splat drops it.
+    #[inline]
+    fn weights(&self, rec: usize, a: f64, tau: f64, pulse_acc: &mut [f64]) -> Option<(f64, f64)> {
+        // Same arithmetic as `deposit::splat` on values.
+        let s = (tau - self.t0) * self.fs;
+        if !s.is_finite() || s <= -1.0 {
+            return None;
+        }
+        let i = s.floor();
+        let f = s - i;
+        let n = self.n_samples as f64;
+        if i >= n {
+            return None;
+        }
+        let at = |g: &[f64], k: f64| -> f64 {
+            if k >= 0.0 && k < n {
+                g[rec + k as usize]
+            } else {
+                0.0
+            }
+        };
+        let (g0, g1) = (at(self.g, i), at(self.g, i + 1.0));
+        for (acc, gp) in pulse_acc.iter_mut().zip(self.g_pulse) {
+            *acc += a * ((1.0 - f) * at(gp, i) + f * at(gp, i + 1.0));
+        }
+        Some(((1.0 - f) * g0 + f * g1, a * self.fs * (g1 - g0)))
+    }
+}
+
+/// Offset of record `(tx, e)` in channel layout.
+#[inline]
+fn record_offset(tx: usize, e: u32, n_el: usize, n_samples: usize) -> usize {
+    (tx * n_el + e as usize) * n_samples
+}
+
+/// Add the pulse-shape terms (`pulse_total = [Σ a·G'_fc(τ), Σ a·G'_cycles(τ)]`)
+/// to the gradient of the parameters of `group` that are pulse-shape keys.
+fn add_pulse_terms(group: &[&str], pulse_total: &[f64], out: &mut [f64]) {
+    if pulse_total.is_empty() {
+        return;
+    }
+    for (o, p) in out.iter_mut().zip(group) {
+        match *p {
+            FC => *o += pulse_total[0],
+            CYCLES => *o += pulse_total[1],
+            _ => {}
+        }
+    }
+}
+
+/// The (transmit, element block) chunks in their fixed order.
+fn chunks(n_tx: usize, n_el: usize) -> Vec<(usize, std::ops::Range<usize>)> {
+    (0..n_tx)
+        .flat_map(|tx| element_blocks(n_el).into_iter().map(move |b| (tx, b)))
+        .collect()
+}
+
+/// One forward pass with `N` partials (`group`, `group.len() ≤ N`), adding into
+/// `out[..group.len()]`.
+fn dual_pass<const N: usize>(
+    scene: &Scene,
+    group: &[&str],
+    adj: &Adjoint<'_>,
+    s: &TraceSettings,
+    opts: &RenderOptions,
+    out: &mut [f64],
+) -> Result<(), SceneError> {
+    let st: SceneT<Dual<N>> =
+        scene.lift(|path, v| match group.iter().position(|q| *q == path) {
+            Some(i) => Dual::variable(v, i),
+            None => Dual::from_f64(v),
+        })?;
+    let n_el = st.n_elements;
+    let work = chunks(st.angles.len(), n_el);
+    let parts: Vec<([f64; N], Vec<f64>)> = in_pool(opts.threads, || {
+        work.par_iter()
+            .map(|(tx, els)| {
+                let mut acc = [0.0; N];
+                let mut pulse_acc = vec![0.0; adj.g_pulse.len()];
+                trace_block(&st, s, *tx, els.clone(), |d: Deposit<Dual<N>>| {
+                    let rec = record_offset(*tx, d.element, n_el, adj.n_samples);
+                    if let Some((ab, tb)) =
+                        adj.weights(rec, d.amplitude.re, d.time.re, &mut pulse_acc)
+                    {
+                        for j in 0..N {
+                            acc[j] += ab * d.amplitude.eps[j] + tb * d.time.eps[j];
+                        }
+                    }
+                });
+                (acc, pulse_acc)
+            })
+            .collect()
+    });
+    // Fixed-order reduction over chunks.
+    let mut pulse_total = vec![0.0; adj.g_pulse.len()];
+    for (acc, p) in parts {
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o += a;
+        }
+        for (t, v) in pulse_total.iter_mut().zip(p) {
+            *t += v;
+        }
+    }
+    add_pulse_terms(group, &pulse_total, out);
+    Ok(())
+}
+
+/// One replay with a reverse-mode recording per path, adding into `out`.
+fn reverse_pass(
+    scene: &Scene,
+    params: &[&str],
+    adj: &Adjoint<'_>,
+    s: &TraceSettings,
+    opts: &RenderOptions,
+    out: &mut [f64],
+) -> Result<(), SceneError> {
+    let meshes = scene.mesh_instances()?;
+    let theta: Vec<f64> = params
+        .iter()
+        .map(|p| scene.get(p))
+        .collect::<Result<_, _>>()?;
+    let n_el = scene.probe.n_elements;
+    let n_tx = scene.acquisition.angles_deg.len();
+    // Check the lift once (errors surface here, not inside the workers).
+    scene.lift_with(Some(&meshes), |_, v| f64::from_f64(v))?;
+    let work = chunks(n_tx, n_el);
+    let np = params.len();
+    let parts: Vec<(Vec<f64>, Vec<f64>)> = in_pool(opts.threads, || {
+        work.par_iter()
+            .map(|(tx, els)| {
+                let mut acc = vec![0.0; np];
+                let mut pulse_acc = vec![0.0; adj.g_pulse.len()];
+                let mut vars = vec![Var::constant(0.0); np];
+                let (mut ys, mut ws): (Vec<Var>, Vec<f64>) = (Vec::new(), Vec::new());
+                let mut rec = Recording::start();
+                for el in els.clone() {
+                    for ray in 0..s.rays_per_element {
+                        rec.restart();
+                        rec.inputs_into(&theta, &mut vars);
+                        let Ok(st) = scene.lift_with(Some(&meshes), |path, v| {
+                            match params.iter().position(|q| *q == path) {
+                                Some(i) => vars[i],
+                                None => Var::constant(v),
+                            }
+                        }) else {
+                            continue; // checked above; cannot fail
+                        };
+                        ys.clear();
+                        ws.clear();
+                        let stack = crate::integrator::element_stack(&st, el);
+                        crate::integrator::trace_path_from(
+                            &st,
+                            s,
+                            *tx,
+                            el,
+                            ray as u32,
+                            stack,
+                            |d: Deposit<Var>| {
+                                let r = record_offset(*tx, d.element, n_el, adj.n_samples);
+                                if let Some((ab, tb)) = adj.weights(
+                                    r,
+                                    d.amplitude.value(),
+                                    d.time.value(),
+                                    &mut pulse_acc,
+                                ) {
+                                    ys.extend([d.amplitude, d.time]);
+                                    ws.extend([ab, tb]);
+                                }
+                            },
+                        );
+                        if !ys.is_empty() {
+                            rec.vjp(&ys, &ws, &mut acc);
+                        }
+                    }
+                }
+                drop(rec);
+                (acc, pulse_acc)
+            })
+            .collect()
+    });
+    let mut pulse_total = vec![0.0; adj.g_pulse.len()];
+    for (acc, p) in parts {
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o += a;
+        }
+        for (t, v) in pulse_total.iter_mut().zip(p) {
+            *t += v;
+        }
+    }
+    add_pulse_terms(params, &pulse_total, out);
+    Ok(())
+}

@@ -1,0 +1,128 @@
+//! `channel_gradient`: errors, forward-dual vs reverse agreement, thread-count
+//! independence, agreement with a dual render.
+
+mod common;
+use common::scene_path;
+use usray_transport::{channel_gradient, render, render_lifted, RenderOptions, Scene};
+
+/// Fixed pseudo-random weights in [−0.5, 0.5) (xorshift), the loss L = Σ w·P.
+fn weights(n: usize, seed: u64) -> Vec<f64> {
+    let mut x = seed;
+    (0..n)
+        .map(|_| {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        })
+        .collect()
+}
+
+fn opts(rays: usize, threads: usize) -> RenderOptions {
+    RenderOptions {
+        rays_per_element: Some(rays),
+        threads: Some(threads),
+        ..Default::default()
+    }
+}
+
+/// The cylinder scene with one transmit (keeps the tests fast).
+fn cylinder() -> Scene {
+    let text = std::fs::read_to_string(scene_path("cylinder.toml"))
+        .unwrap()
+        .replace(
+            "angles_deg = [-10.0, -5.0, 0.0, 5.0, 10.0]",
+            "angles_deg = [5.0]",
+        );
+    Scene::from_toml_str(&text, "cylinder-1tx", scene_path("")).unwrap()
+}
+
+const PARAMS: [&str; 12] = [
+    "objects.cylinder.radius_m",
+    "objects.cylinder.center_m.0",
+    "objects.cylinder.center_m.2",
+    "materials.target.impedance_mrayl",
+    "materials.target.sound_speed_m_s",
+    "materials.target.roughness",
+    "materials.target.attenuation_db_cm_mhz",
+    "medium.sound_speed_m_s",
+    "medium.impedance_mrayl",
+    "probe.pitch_m",
+    "probe.center_frequency_hz",
+    "probe.cycles",
+];
+
+#[test]
+fn errors_name_the_problem() {
+    let scene = cylinder();
+    let o = opts(1, 2);
+    let (d, _) = render(&scene, &o).unwrap();
+    let e =
+        channel_gradient(&scene, &["objects.cylinder.radius_m"], &d.samples[1..], &o).unwrap_err();
+    assert_eq!(e.key, "d_channels", "{e}");
+    assert!(e.to_string().contains(&d.samples.len().to_string()), "{e}");
+    let e = channel_gradient(&scene, &["objects.cylinder.nope"], &d.samples, &o).unwrap_err();
+    assert_eq!(e.key, "objects.cylinder.nope", "{e}");
+    // Parameters the transport does not read get 0.
+    let g = channel_gradient(&scene, &["imaging.f_number"], &d.samples, &o).unwrap();
+    assert_eq!(g, vec![0.0]);
+}
+
+#[test]
+fn equals_the_derivative_of_a_dual_render() {
+    // Σ w·∂P/∂θ from a Dual<1> render (splat + convolution in the dual) against
+    // the replay with correlated adjoints: the same numbers up to rounding.
+    // (Pulse-shape parameters are not in this comparison: the dual render
+    // convolves with f64 taps; they are checked against finite differences.)
+    let scene = cylinder();
+    let o = opts(2, 2);
+    let (d, _) = render(&scene, &o).unwrap();
+    let w = weights(d.samples.len(), 7);
+    for p in [
+        "objects.cylinder.radius_m",
+        "materials.target.impedance_mrayl",
+        "materials.target.attenuation_db_cm_mhz",
+        "probe.pitch_m",
+    ] {
+        let st = scene.lift_dual::<1>(&[p]).unwrap();
+        let (pd, _, _) = render_lifted(&scene, &st, &o);
+        let want: f64 = pd.iter().zip(&w).map(|(v, w)| v.eps[0] * w).sum();
+        let got = channel_gradient(&scene, &[p], &w, &o).unwrap()[0];
+        eprintln!("{p}: dual render {want:.9e}, channel_gradient {got:.9e}");
+        assert!(
+            (got - want).abs() <= 1e-9 * want.abs(),
+            "{p}: {got} vs {want}"
+        );
+    }
+}
+
+#[test]
+fn forward_and_reverse_modes_agree_and_threads_do_not_matter() {
+    let scene = cylinder();
+    let o = opts(2, 2);
+    let (d, _) = render(&scene, &o).unwrap();
+    let w = weights(d.samples.len(), 11);
+    // 12 parameters: per-path reverse mode.
+    let rev = channel_gradient(&scene, &PARAMS, &w, &o).unwrap();
+    // The same in two forward calls of 6 (Dual<6> passes).
+    let mut fwd = channel_gradient(&scene, &PARAMS[..6], &w, &o).unwrap();
+    fwd.extend(channel_gradient(&scene, &PARAMS[6..], &w, &o).unwrap());
+    for (j, p) in PARAMS.iter().enumerate() {
+        let scale = rev[j].abs().max(fwd[j].abs());
+        eprintln!("{p}: reverse {:.12e}, forward {:.12e}", rev[j], fwd[j]);
+        assert!(
+            (rev[j] - fwd[j]).abs() <= 1e-10 * scale,
+            "{p}: reverse {} forward {}",
+            rev[j],
+            fwd[j]
+        );
+    }
+    assert!(rev.iter().all(|v| v.is_finite()));
+    assert!(rev.iter().filter(|v| **v != 0.0).count() >= 10);
+    // Bit-identical with 1 thread, in both modes.
+    let rev1 = channel_gradient(&scene, &PARAMS, &w, &opts(2, 1)).unwrap();
+    let fwd1 = channel_gradient(&scene, &PARAMS[..6], &w, &opts(2, 1)).unwrap();
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&rev), bits(&rev1));
+    assert_eq!(bits(&fwd[..6]), bits(&fwd1));
+}
