@@ -1,7 +1,6 @@
 //! Rays per second of the geometry layer on one thread, for comparison with the
 //! whole tracer: bare `obvhs` traversal ([`MeshBvh::traverse_f32`]), the
-//! closest-hit query ([`MeshBvh::closest_hit`], and without its `f32` candidate
-//! filter, [`MeshBvh::closest_hit_f64_tests`]), [`Geometry::intersect`] in `f64`
+//! closest-hit query ([`MeshBvh::closest_hit`]), [`Geometry::intersect`] in `f64`
 //! and in `Dual<4>` (mesh and analytic tube); for the meshes also rays leaving
 //! the surface (like the tracer's secondary rays).
 //!
@@ -77,16 +76,9 @@ fn main() {
                 })
                 .count()
         });
-        rate("MeshBvh::closest_hit (f32 filter, f64 tests)", n, || {
+        rate("MeshBvh::closest_hit (f32 BVH, f64 tests)", n, || {
             rs.iter()
                 .filter(|(o, d)| black_box(inst.bvh.closest_hit(*o, *d, 1e-9, 1.0)).is_some())
-                .count()
-        });
-        rate("MeshBvh::closest_hit_f64_tests (no filter)", n, || {
-            rs.iter()
-                .filter(|(o, d)| {
-                    black_box(inst.bvh.closest_hit_f64_tests(*o, *d, 1e-9, 1.0)).is_some()
-                })
                 .count()
         });
         // Rays leaving the surface (the tracer's secondary and connection rays):
@@ -117,13 +109,6 @@ fn main() {
         rate("secondary: MeshBvh::closest_hit", m, || {
             sec.iter()
                 .filter(|(o, d)| black_box(inst.bvh.closest_hit(*o, *d, 1e-9, 1.0)).is_some())
-                .count()
-        });
-        rate("secondary: MeshBvh::closest_hit_f64_tests", m, || {
-            sec.iter()
-                .filter(|(o, d)| {
-                    black_box(inst.bvh.closest_hit_f64_tests(*o, *d, 1e-9, 1.0)).is_some()
-                })
                 .count()
         });
         let mut g = Geometry::<f64>::new();

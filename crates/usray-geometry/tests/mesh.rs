@@ -282,14 +282,13 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
     [v[0] / l, v[1] / l, v[2] / l]
 }
 
-/// The `f32` candidate filter of `closest_hit` / `count_crossings` must never
-/// change a result: on the rays that stress it — starting on a leaflet (the
-/// tracer's secondary and connection rays), grazing a triangle's plane, aimed at
-/// vertices and edges, from near and far — the hit equals both the unfiltered
-/// traversal (`closest_hit_f64_tests`, bit for bit) and the brute-force `f64`
-/// search over all triangles, and crossing counts equal brute force.
+/// The BVH query equals the brute-force `f64` search over all triangles on the
+/// rays that stress hit finding: starting on a leaflet (the tracer's secondary
+/// and connection rays), grazing a triangle's plane, aimed at vertices and
+/// edges, from near (inside the 0.1 mm `obvhs` node floor) and far; crossing
+/// counts (point-in-solid parity) equal brute force too.
 #[test]
-fn f32_candidate_filter_never_changes_the_f64_result() {
+fn bvh_equals_brute_force_on_surface_grazing_vertex_and_near_rays() {
     let valve = valve_leaflets(0.5, &ValveParams::default());
     let w_valve = Transform::from_euler(
         Vec3::new(0.001, -0.002, 0.012),
@@ -366,8 +365,6 @@ fn f32_candidate_filter_never_changes_the_f64_result() {
                 1.0
             };
             let got = inst.bvh.closest_hit(o, d, t_min, t_max);
-            let reference = inst.bvh.closest_hit_f64_tests(o, d, t_min, t_max);
-            assert_eq!(got, reference, "filter changed the hit: o {o:?} d {d:?}");
             let (bf, crossings) = brute_force_full(&inst, o, d, t_min, t_max);
             match (got, bf) {
                 (None, None) => {}

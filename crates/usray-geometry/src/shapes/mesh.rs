@@ -292,8 +292,19 @@ pub fn moller_trumbore<T: Real>(
     v1: Vec3<T>,
     v2: Vec3<T>,
 ) -> Option<(T, T, T)> {
-    let e1 = v1 - v0;
-    let e2 = v2 - v0;
+    moller_trumbore_edges(o, d, v0, v1 - v0, v2 - v0)
+}
+
+/// [`moller_trumbore`] with the edges `e1 = v1 − v0`, `e2 = v2 − v0` given
+/// (bit-identical results when they are computed the same way).
+#[inline(always)]
+pub fn moller_trumbore_edges<T: Real>(
+    o: Vec3<T>,
+    d: Vec3<T>,
+    v0: Vec3<T>,
+    e1: Vec3<T>,
+    e2: Vec3<T>,
+) -> Option<(T, T, T)> {
     let p = d.cross(e2);
     let det = e1.dot(p);
     if det.value() == 0.0 || !det.value().is_finite() {
@@ -333,102 +344,16 @@ pub struct MeshBvh {
     prim_world: Vec<[[f64; 3]; 3]>,
     /// Per BVH primitive: BVH-frame `f32` triangle (bare traversal benchmark).
     prim_f32: Vec<obvhs::triangle::Triangle>,
-    /// Per BVH *slot* (`obvhs` primitive id, i.e. in traversal order, no
-    /// indirection): the BVH-frame `f32` filter data (see [`FilterTri`]).
-    filter: Vec<FilterTri>,
-    /// Largest absolute BVH-frame vertex coordinate (for the filter's error bound).
-    frame_radius: f32,
+    /// Per BVH slot: world-space `f64` `[v0, v1 − v0, v2 − v0]` and the mesh
+    /// triangle index (the `f64` test without the `primitive_indices`
+    /// indirection).
+    slot64: Vec<([[f64; 3]; 3], u32)>,
     /// Diagonal of the world bounds, metres.
     extent: f64,
     /// World point mapped to the BVH-frame origin, metres.
     center: [f64; 3],
     /// BVH-frame units per metre.
     scale: f64,
-}
-
-/// A triangle in the BVH frame, prepared for the conservative `f32` candidate
-/// filter ([`MeshBvh::closest_hit`]): `v0`, the edges `e1 = v0 − v1`,
-/// `e2 = v2 − v0` and `n = e1 × e2`, each computed in `f64` and rounded once to
-/// `f32` (so every component carries a relative error of at most `2⁻²⁴`).
-#[derive(Clone, Copy, Debug)]
-struct FilterTri {
-    v0: Vec3A,
-    e1: Vec3A,
-    e2: Vec3A,
-    n: Vec3A,
-}
-
-/// Unit roundoff of `f32`.
-const U32: f32 = f32::EPSILON * 0.5;
-
-/// Safety factors of the `f32` filter's error bounds over the first-order
-/// forward-error estimates (which are ≈ 60·u·B·L for the edge functions,
-/// ≈ 30·u·L² for the determinant and ≈ 36·u·L²·B for the distance numerator; see
-/// [`FilterTri::may_hit`]).
-const K_EDGE: f32 = 256.0;
-const K_DET: f32 = 128.0;
-const K_T: f32 = 256.0;
-
-impl FilterTri {
-    /// From the three BVH-frame `f64` corners.
-    fn new(q: [[f64; 3]; 3]) -> Self {
-        let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-        let (e1, e2) = (sub(q[0], q[1]), sub(q[2], q[0]));
-        let n = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
-        let f = |a: [f64; 3]| Vec3A::new(a[0] as f32, a[1] as f32, a[2] as f32);
-        Self {
-            v0: f(q[0]),
-            e1: f(e1),
-            e2: f(e2),
-            n: f(n),
-        }
-    }
-
-    /// Conservative `f32` Möller–Trumbore (the formulation of
-    /// `obvhs::triangle::Triangle::intersect`: `c = v0 − o`, `r = d × c`,
-    /// `det = n·d`, `u = r·e2/det`, `v = r·e1/det`, `t = n·c/det`): returns
-    /// `false` only when the **exact** ray (`o`, `d` before rounding to `f32`)
-    /// certainly misses the exact triangle or hits it outside `[t_lo, t_hi]`
-    /// (traversal-ray distances). Every quantity is compared with a forward error
-    /// bound that covers the rounding of the inputs to `f32` and of the
-    /// arithmetic: with `B ≥ |o|∞ + |v0|∞` (`b`, per ray) and `L = max(|e1|∞,
-    /// |e2|∞)`, the edge numerators `r·e` are off by at most ≈ 60·u·B·L, `det`
-    /// by ≈ 30·u·L², `n·c` by ≈ 36·u·L²·B (`u = 2⁻²⁴`); the bounds used are
-    /// several times larger. A near-parallel ray (`|det|` within its error) is
-    /// always passed on. The `f64` test then decides exactly as before, so the
-    /// filter changes speed, never results.
-    // The negated comparisons are deliberate: a NaN must pass the triangle on.
-    #[allow(clippy::neg_cmp_op_on_partial_ord)]
-    #[inline(always)]
-    fn may_hit(&self, o: Vec3A, d: Vec3A, b: f32, t_lo: f32, t_hi: f32) -> bool {
-        let l = self.e1.abs().max(self.e2.abs()).max_element();
-        let det = self.n.dot(d);
-        let e_det = K_DET * U32 * l * l;
-        let abs_det = det.abs();
-        if !(abs_det > e_det) {
-            return true; // near-parallel (or NaN): let the f64 test decide
-        }
-        let c = self.v0 - o;
-        let r = d.cross(c);
-        let sg = det.signum();
-        let u = r.dot(self.e2) * sg;
-        let v = r.dot(self.e1) * sg;
-        let e_uv = K_EDGE * U32 * b * l;
-        if u < -e_uv || v < -e_uv || u + v > abs_det + e_det + 2.0 * e_uv {
-            return false;
-        }
-        let tn = self.n.dot(c) * sg;
-        let e_t = K_T * U32 * l * l * b;
-        // Exact det' ∈ [|det| − e_det, |det| + e_det] (> 0), exact n·c ∈ tn ± e_t:
-        // reject only when t = (n·c)/det' is outside [t_lo, t_hi] for all of them.
-        // Written as negated rejections so that a NaN anywhere passes the triangle on.
-        !(tn + e_t < t_lo * abs_det - t_lo.abs() * e_det)
-            && !(tn - e_t > t_hi * abs_det + t_hi.abs() * e_det)
-    }
 }
 
 /// Bounding-box diagonal of a mesh in BVH-frame units (see [`MeshBvh`]).
@@ -496,8 +421,6 @@ impl MeshBvh {
         let mut prim_world = Vec::new();
         let mut prim_f32 = Vec::new();
         let mut aabbs = Vec::new();
-        let mut prim_frame = Vec::new();
-        let mut frame_radius = 0.0_f64;
         for (i, t) in mesh.triangles.iter().enumerate() {
             let c = t.map(|k| world[k as usize]);
             let [a, b, cc] = c.map(Vec3::<f64>::from);
@@ -513,8 +436,6 @@ impl MeshBvh {
                 ]
             });
             let v = q.map(|p| Vec3A::new(p[0] as f32, p[1] as f32, p[2] as f32));
-            frame_radius = q.iter().flatten().fold(frame_radius, |m, x| m.max(x.abs()));
-            prim_frame.push(q);
             let mut bb = Aabb::from_points(&v);
             bb.min -= Vec3A::splat(pad);
             bb.max += Vec3A::splat(pad);
@@ -537,22 +458,24 @@ impl MeshBvh {
             BvhBuildParams::medium_build(),
             &mut Duration::default(),
         );
-        // The filter table in traversal order: `obvhs` hands the callback a slot
-        // index, and this saves the `primitive_indices` indirection per candidate.
-        let filter = bvh
+        // The f64 test data in traversal order: `obvhs` hands the callback a slot
+        // index, and this saves the `primitive_indices` indirection and the edge
+        // subtractions per candidate.
+        let slot64 = bvh
             .primitive_indices
             .iter()
-            .map(|&p| FilterTri::new(prim_frame[p as usize]))
+            .map(|&p| {
+                let [a, b, c] = prim_world[p as usize];
+                let sub = |x: [f64; 3], y: [f64; 3]| [x[0] - y[0], x[1] - y[1], x[2] - y[2]];
+                ([a, sub(b, a), sub(c, a)], prim_triangle[p as usize])
+            })
             .collect();
-        // Rounded up, so it bounds every f32 vertex coordinate too.
-        let frame_radius = (frame_radius as f32) * (1.0 + 4.0 * f32::EPSILON);
         Ok(Self {
             bvh,
             prim_triangle,
             prim_world,
             prim_f32,
-            filter,
-            frame_radius,
+            slot64,
             extent,
             center,
             scale,
@@ -601,39 +524,27 @@ impl MeshBvh {
         }
     }
 
-    #[inline]
-    fn prim_t(&self, prim: usize, o: Vec3<f64>, d: Vec3<f64>) -> Option<f64> {
-        let [a, b, c] = self.prim_world[prim].map(Vec3::<f64>::from);
-        let (t, u, v) = moller_trumbore(o, d, a, b, c)?;
-        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t.is_finite()).then_some(t)
-    }
-
-    /// World distance → traversal-ray distance rounded *down* a little (the lower
-    /// end of the `f32` filter's range).
-    #[inline]
-    fn to_traversal_t_lo(&self, t: f64) -> f32 {
-        let ts = t * self.scale + BVH_ORIGIN_SHIFT;
-        if ts <= f32::MIN as f64 {
-            f32::NEG_INFINITY
-        } else {
-            let ts = ts as f32;
-            ts - ts.abs() * (8.0 * f32::EPSILON) - 1e-6
-        }
-    }
-
-    /// The per-ray coordinate bound `B` of the `f32` filter ([`FilterTri::may_hit`]).
-    #[inline]
-    fn filter_bound(&self, ray: &obvhs::ray::Ray) -> f32 {
-        ray.origin.abs().max_element() + self.frame_radius
+    /// The `f64` test of BVH slot `id` (same arithmetic as [`moller_trumbore`]
+    /// on the world corners): `(t, mesh triangle)` of a hit on the triangle.
+    #[inline(always)]
+    fn slot_t(&self, id: usize, o: Vec3<f64>, d: Vec3<f64>) -> Option<(f64, u32)> {
+        let ([a, e1, e2], tri) = self.slot64[id];
+        let (a, e1, e2) = (Vec3::from(a), Vec3::from(e1), Vec3::from(e2));
+        let (t, u, v) = moller_trumbore_edges(o, d, a, e1, e2)?;
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t.is_finite()).then_some((t, tri))
     }
 
     /// The closest triangle hit with `t` in `[t_min, t_max]` (metres): BVH
-    /// traversal in `f32`, every candidate triangle first screened by a
-    /// conservative `f32` test in the BVH frame ([`FilterTri::may_hit`], which
-    /// rejects only certain misses and hits certainly outside the current
-    /// `[t_min, best]`), the survivors — normally the winner and the triangle
-    /// the ray starts on — tested in `f64` against the world-space vertices. The
-    /// result is that of the `f64` test over all triangles.
+    /// traversal in `f32`, every candidate triangle tested in `f64` against the
+    /// world-space vertices (edges precomputed in `f64`, stored in traversal
+    /// order; bit-identical to [`moller_trumbore`] on the corners).
+    ///
+    /// An `f32` pre-test of the candidates (conservative Möller–Trumbore in the
+    /// BVH frame with forward error bounds, `f64` only for the survivors) was
+    /// measured and removed: on the valve scene a tracer ray meets only ≈ 3.5
+    /// candidates, and the bounded `f32` test cost about as many instructions as
+    /// the `f64` test it saved (`callgrind`: +2.6 % for `closest_hit`); see
+    /// `docs/performance.md`.
     pub fn closest_hit(
         &self,
         origin: [f64; 3],
@@ -643,79 +554,28 @@ impl MeshBvh {
     ) -> Option<MeshHit> {
         let ray = self.f32_ray(origin, dir, t_max)?;
         let (o, d) = (Vec3::from(origin), Vec3::from(dir));
-        let (o32, d32) = (ray.origin, ray.direction);
-        let b = self.filter_bound(&ray);
-        let t_lo = self.to_traversal_t_lo(t_min);
         let mut best: Option<MeshHit> = None;
         let mut rh = RayHit::none();
-        self.bvh.ray_traverse(ray, &mut rh, |r, id| {
-            // `r.tmax` is the traversal distance of the best hit so far (or of
-            // t_max), already rounded up.
-            if !self.filter[id].may_hit(o32, d32, b, t_lo, r.tmax) {
-                return f32::INFINITY;
-            }
-            let prim = self.bvh.primitive_indices[id] as usize;
-            match self.prim_t(prim, o, d) {
-                Some(t) if t >= t_min && t <= t_max && best.is_none_or(|b| t < b.t) => {
-                    best = Some(MeshHit {
-                        t,
-                        triangle: self.prim_triangle[prim],
-                    });
+        self.bvh
+            .ray_traverse(ray, &mut rh, |_r, id| match self.slot_t(id, o, d) {
+                Some((t, triangle)) if t >= t_min && t <= t_max && best.is_none_or(|b| t < b.t) => {
+                    best = Some(MeshHit { t, triangle });
                     self.to_traversal_t(t)
                 }
                 _ => f32::INFINITY,
-            }
-        });
+            });
         best
     }
 
-    /// The closest hit by testing every candidate of the traversal in `f64` (no
-    /// `f32` filter): the reference [`MeshBvh::closest_hit`] must agree with, for
-    /// tests and benchmarks.
-    pub fn closest_hit_f64_tests(
-        &self,
-        origin: [f64; 3],
-        dir: [f64; 3],
-        t_min: f64,
-        t_max: f64,
-    ) -> Option<MeshHit> {
-        let ray = self.f32_ray(origin, dir, t_max)?;
-        let (o, d) = (Vec3::from(origin), Vec3::from(dir));
-        let mut best: Option<MeshHit> = None;
-        let mut rh = RayHit::none();
-        self.bvh.ray_traverse(ray, &mut rh, |_r, id| {
-            let prim = self.bvh.primitive_indices[id] as usize;
-            match self.prim_t(prim, o, d) {
-                Some(t) if t >= t_min && t <= t_max && best.is_none_or(|b| t < b.t) => {
-                    best = Some(MeshHit {
-                        t,
-                        triangle: self.prim_triangle[prim],
-                    });
-                    self.to_traversal_t(t)
-                }
-                _ => f32::INFINITY,
-            }
-        });
-        best
-    }
-
-    /// Number of triangle crossings with `t > t_min` along a ray (candidates
-    /// screened by the conservative `f32` filter, counted by the `f64` test).
+    /// Number of triangle crossings with `t > t_min` along a ray (f64 tests).
     pub fn count_crossings(&self, origin: [f64; 3], dir: [f64; 3], t_min: f64) -> usize {
         let Some(ray) = self.f32_ray(origin, dir, f64::INFINITY) else {
             return 0;
         };
         let (o, d) = (Vec3::from(origin), Vec3::from(dir));
-        let (o32, d32) = (ray.origin, ray.direction);
-        let b = self.filter_bound(&ray);
-        let t_lo = self.to_traversal_t_lo(t_min);
         let mut n = 0;
         self.bvh.ray_traverse_anyhit(ray, |_r, id| {
-            if !self.filter[id].may_hit(o32, d32, b, t_lo, f32::INFINITY) {
-                return;
-            }
-            let prim = self.bvh.primitive_indices[id] as usize;
-            if let Some(t) = self.prim_t(prim, o, d) {
+            if let Some((t, _)) = self.slot_t(id, o, d) {
                 if t > t_min {
                     n += 1;
                 }
