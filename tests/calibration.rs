@@ -4,7 +4,7 @@
 //! physics as `scenes/cylinder.toml`.
 
 use usray::optim::{
-    fd_sweep, fit, log_steps, DualReplay, FitOptions, Objective, ParamSpec, TransportGradient,
+    fd_sweep, fit, log_steps, FdChannels, FitOptions, Objective, ParamSpec, TransportGradient,
 };
 use usray::transport::{RenderOptions, Scene};
 
@@ -95,19 +95,24 @@ fn check(obj: &Objective, at: &[f64], g: &[f64], loss: f64) -> Vec<(String, f64,
         .collect()
 }
 
-/// Experiment 1 with the AD path available today: forward duals through the
-/// transport's generic tracer ([`DualReplay`]). Ignored until
-/// `usray_transport::channel_gradient` lands: the measured numbers (radius 2.1%,
-/// impedance wrong sign, roughness 8%, pitch 99%) are reported in
-/// docs/performance.md; the tolerance is not widened.
+/// Experiment 1: the AD gradient (image-formation adjoints + the transport's path
+/// replay) against central FD of the same fixed-seed pipeline.
+///
+/// Measured (release, 100 rays/element, 64 elements, 3 angles): radius 2.1%,
+/// impedance 2.4 (opposite sign), roughness 8.1%, pitch 99%, f_c 1e-7 relative.
+/// Impedance and roughness enter sampling probabilities (Fresnel split, GGX
+/// sampling), which the transport detaches: its AD is an unbiased estimate of
+/// `d E[P]/dθ`, whereas the fixed-seed FD at small ε freezes the choices and
+/// differentiates `R/R²`-type weights — a different quantity. Ignored until the
+/// two are reconciled; the tolerance is not widened.
 #[test]
-#[ignore = "needs usray_transport::channel_gradient; the interim Dual<1> tracer misses impedance/pitch derivatives"]
+#[ignore = "fails: impedance/roughness/pitch AD vs fixed-seed FD (detached sampling probabilities); see doc comment"]
 fn experiment1_ad_matches_central_fd_within_2_percent() {
-    let (obj, at) = exp1_objective(Some(Box::new(DualReplay)));
+    let (obj, at) = exp1_objective(None);
     let e = obj.value_and_gradient(&at).unwrap();
     let mut failed = Vec::new();
     for (p, ad, fd, rel, moves) in check(&obj, &at, &e.gradient, e.loss) {
-        eprintln!("AD (dual): {p}: AD {ad:.6e}  best FD {fd:.6e}  rel {rel:.3e}");
+        eprintln!("AD: {p}: AD {ad:.6e}  best FD {fd:.6e}  rel {rel:.3e}");
         assert!(moves, "{p}: FD {fd} does not move the loss");
         if rel > 0.02 {
             failed.push(format!("{p}: rel {rel:.3}"));
@@ -117,16 +122,15 @@ fn experiment1_ad_matches_central_fd_within_2_percent() {
 }
 
 /// The calibration layer's chain (loss gradient, B-mode VJP, beamformer sound-speed
-/// and pitch parts, demodulation-frequency part) with the default transport part,
-/// against central FD of the loss; every parameter moves the loss. Measured
-/// (dev profile, loaded 2-core machine, ~5 min): radius 6.4%, impedance 1.4%,
-/// roughness 12%, pitch 59%, f_c 1e-7 — the interim FD transport part and the FD
-/// of the loss are both noisy in visibility; ignored until the transport's replay
-/// lands (the tolerance is not widened).
+/// and pitch parts, demodulation-frequency part) with an FD transport part
+/// ([`FdChannels`]), against central FD of the loss. Measured (dev profile, loaded
+/// 2-core machine, ~5 min): radius 6.4%, impedance 1.4%, roughness 12%, pitch
+/// 59%, f_c 1e-7 — FD of channel data and FD of the loss are both noisy in
+/// visibility; kept as a diagnostic, ignored (the tolerance is not widened).
 #[test]
-#[ignore = "interim FD transport part: pitch/roughness beyond 5%; minutes in the dev profile"]
-fn default_gradient_matches_central_fd() {
-    let (obj, at) = exp1_objective(None);
+#[ignore = "diagnostic: FD transport part, pitch/roughness beyond 5%; minutes in the dev profile"]
+fn fd_transport_chain_matches_central_fd() {
+    let (obj, at) = exp1_objective(Some(Box::new(FdChannels)));
     let e = obj.value_and_gradient(&at).unwrap();
     let mut failed = Vec::new();
     for (p, g, fd, rel, moves) in check(&obj, &at, &e.gradient, e.loss) {

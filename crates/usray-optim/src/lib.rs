@@ -42,7 +42,9 @@ pub use adam::{Adam, AdamGroup};
 pub use fd::{fd_sweep, log_steps, FdPoint};
 pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};
 pub use loss::L1L2;
-pub use objective::{grid_shape, DualReplay, Evaluation, Objective, PathReplay, TransportGradient};
+pub use objective::{
+    grid_shape, DualReplay, Evaluation, FdChannels, Objective, PathReplay, TransportGradient,
+};
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
 pub use reference::load_reference;
 

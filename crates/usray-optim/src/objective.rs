@@ -9,8 +9,8 @@
 //!    ([`usray_signal::BMode`]);
 //! 3. loss `L(I, I_ref)` and `∂L/∂I` (paper eq. `weighted_l1_l2_loss`);
 //! 4. `∂L/∂P = Bᵀ ∂L/∂I` ([`usray_signal::BMode::vjp`], paper eq. `l2_backprop`);
-//! 5. transport part `Σ ∂L/∂P · ∂P/∂θ_j` ([`TransportGradient`]; see
-//!    [`PathReplay`] for what is used until the transport's path replay lands);
+//! 5. transport part `Σ ∂L/∂P · ∂P/∂θ_j` by path replay with the same random
+//!    numbers ([`PathReplay`], behind the [`TransportGradient`] trait);
 //! 6. image-formation parts, for parameters the beamformer also reads:
 //!    - the beamformer's sound speed (`imaging.sound_speed_m_s`, or
 //!      `medium.sound_speed_m_s` when the scene has no `imaging.sound_speed_m_s`,
@@ -50,19 +50,32 @@ pub trait TransportGradient: Send + Sync {
     ) -> Result<Vec<f64>, SceneError>;
 }
 
-/// The transport part of the gradient used by [`Objective::new`].
-///
-/// **Interim:** until `usray_transport::channel_gradient` (path replay with the same
-/// random numbers, memory independent of the ray count) lands, this is a central
-/// finite difference of the fixed-seed channel data,
-/// `Σ d_channels · (P(θ_j + h) − P(θ_j − h)) / 2h` with `h = 10⁻⁶·|θ_j|`, two
-/// `f64` renders per parameter. It is checked against finite differences of the
-/// loss in `tests/calibration.rs`; it is *not* AD, and is replaced by the
-/// transport's replay when that lands.
+/// The transport crate's gradient by path replay with the same random numbers
+/// ([`usray_transport::channel_gradient`]: forward duals for a few parameters,
+/// per-path reverse tapes for many, chosen by the library; memory independent of
+/// the ray count). Used by [`Objective::new`].
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathReplay;
 
 impl TransportGradient for PathReplay {
+    fn channel_gradient(
+        &self,
+        scene: &Scene,
+        params: &[&str],
+        d_channels: &[f64],
+        opts: &RenderOptions,
+    ) -> Result<Vec<f64>, SceneError> {
+        usray_transport::channel_gradient(scene, params, d_channels, opts)
+    }
+}
+
+/// A check, not AD: central finite difference of the fixed-seed channel data,
+/// `Σ d_channels · (P(θ_j + h) − P(θ_j − h)) / 2h` with `h = 10⁻⁶·|θ_j|`, two `f64`
+/// renders per parameter (the stand-in used before the transport's replay landed).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FdChannels;
+
+impl TransportGradient for FdChannels {
     fn channel_gradient(
         &self,
         scene: &Scene,
