@@ -624,6 +624,18 @@ impl MeshBvh {
         assert_eq!(self.prim_world.len(), n, "MeshBvh tables differ in length");
         assert_eq!(self.prim_f32.len(), n, "MeshBvh tables differ in length");
         assert_eq!(self.bvh.primitive_indices.len(), n, "BVH primitive count");
+        assert_eq!(self.slot64.len(), n, "MeshBvh tables differ in length");
+        for (slot, &p) in self.bvh.primitive_indices.iter().enumerate() {
+            let ([a, _, _], tri) = self.slot64[slot];
+            assert!(
+                (p as usize) < n && a == self.prim_world[p as usize][0],
+                "BVH slot {slot}: f64 table out of order"
+            );
+            assert_eq!(
+                tri, self.prim_triangle[p as usize],
+                "BVH slot {slot}: triangle"
+            );
+        }
         let mut seen = vec![false; n];
         for &p in &self.bvh.primitive_indices {
             assert!((p as usize) < n, "BVH primitive index {p} out of range");
