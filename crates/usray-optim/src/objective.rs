@@ -105,7 +105,7 @@ impl TransportGradient for FdChannels {
 /// are past the last echo).
 fn dot_records(a: &ChannelData, b: &ChannelData, d: &[f64]) -> f64 {
     let n_rec = a.n_transmits() * a.n_elements();
-    let ns_d = if n_rec > 0 { d.len() / n_rec } else { 0 };
+    let ns_d = d.len().checked_div(n_rec).unwrap_or(0);
     let n = ns_d.min(a.n_samples).min(b.n_samples);
     let mut sum = 0.0;
     for r in 0..n_rec {
