@@ -70,7 +70,14 @@ fn main() {
     println!(
         "## (b) valve.toml: whole tracer vs bare obvhs traversal, 1 thread (median of {REPEATS})"
     );
-    let valve = scene("valve.toml");
+    let mut valve = scene("valve.toml");
+    // `USRAY_BENCH_VALVE_RAYS` overrides the valve's rays per element.
+    if let Some(r) = std::env::var("USRAY_BENCH_VALVE_RAYS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        valve.acquisition.rays_per_element = r;
+    }
     let (s, rps, rays) = bench_render(&valve, 1);
     println!("tracer (whole render: trace + splat + pulse convolution): {s:.3} s, {rays} rays, {rps:.3e} rays/s");
     // Tracing alone (paths, connections, deposits; no splat/convolution).
@@ -122,17 +129,21 @@ fn main() {
             }
         }
     }
+    // Repeat the traversal of all rays `inner` times per timing (≥ 0.1 s).
+    let inner = (2_000_000 / rays_v.len().max(1)).max(1);
     let mut secs = Vec::new();
     let mut hits = 0;
     for _ in 0..REPEATS {
         let t = Instant::now();
-        hits = 0;
-        for (o, d) in &rays_v {
-            if mesh.bvh.traverse_f32(*o, *d, f32::INFINITY).is_some() {
-                hits += 1;
+        for _ in 0..inner {
+            hits = 0;
+            for (o, d) in &rays_v {
+                if mesh.bvh.traverse_f32(*o, *d, f32::INFINITY).is_some() {
+                    hits += 1;
+                }
             }
         }
-        secs.push(t.elapsed().as_secs_f64());
+        secs.push(t.elapsed().as_secs_f64() / inner as f64);
     }
     let sb = median(secs);
     let bare = rays_v.len() as f64 / sb;

@@ -28,6 +28,17 @@
 //! around a rayon call. Either way the memory is one path's tape plus one
 //! gradient vector per chunk: nothing grows with the ray count.
 //!
+//! # What it is the derivative of
+//! The replay holds every sampling decision and divides by **detached**
+//! probabilities (`R²` split, GGX visible-normal density, MIS weights;
+//! DESIGN.md). That is unbiased for the derivative of the *expected* channel
+//! data; it equals the derivative of the one realization only for parameters
+//! that leave those probabilities unchanged (translations at 0° steering,
+//! attenuation, pulse shape: < 1e-6 against finite differences). Others differ
+//! from a one-realization finite difference by the detached term (measured:
+//! radius 0.6 %, impedance 0.9 %, pitch 1.2 %, sound speed 4.8 %, roughness
+//! 17 %; `tests/gradient_fd.rs`). Visibility changes carry no derivative.
+//!
 //! # Determinism
 //! Chunks are those of the render (transmit, block of [`crate::render::ELEMENT_BLOCK`]
 //! emitting elements); each returns its partial gradient, and partials are summed

@@ -89,12 +89,19 @@
 //! - **Gradients**: every continuous quantity is computed in `T` from the lifted
 //!   scene; sampling decisions use values; probabilities are detached; visibility
 //!   changes (which surface is hit, which element a ray lands on) carry no
-//!   derivative.
+//!   derivative. [`channel_gradient`] returns `Σ d_channels·∂P/∂θ` for named
+//!   parameters by replaying the render's paths (same `RenderOptions` ⇒ same
+//!   random numbers) against the pulse-correlated adjoint `G = g ⋆ s`: `Dual<N ≤ 8>`
+//!   passes below [`gradient::REVERSE_MIN_PARAMS`] parameters, per-path reverse
+//!   mode from there; memory does not grow with the ray count; bit-identical for
+//!   any thread count. Being detached, sampling probabilities make it the
+//!   derivative of the expected data rather than exactly that of one realization
+//!   (see [`gradient`] and `tests/gradient_fd.rs` for the measured difference).
 //!
 //! Modules: [`scene`] (file, validation, parameters, lifting), [`probe`],
 //! [`fresnel`], [`ggx`], [`rng`], [`integrator`] (the path tracer),
 //! [`deposit`] (placing echoes in time), [`effects`], [`mod@render`] (parallel,
-//! reproducible accumulation).
+//! reproducible accumulation), [`gradient`] (the transport gradient).
 
 pub mod deposit;
 pub mod effects;

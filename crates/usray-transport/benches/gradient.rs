@@ -1,0 +1,69 @@
+//! Transport gradient cost (`harness = false`, median of repeats): value (f64
+//! render) against value + `channel_gradient` of `L = Σ w·P` for 3 parameters
+//! (one `Dual<3>` replay) and 16 parameters (per-path reverse mode), on
+//! `scenes/cylinder.toml` at its default settings, all cores.
+//!
+//! Run: `cargo bench -p usray-transport --bench gradient`. Peak memory against
+//! the ray count: `examples/gradient_cost.rs` under `/usr/bin/time -v`.
+
+use std::time::Instant;
+use usray_transport::{channel_gradient, render, RenderOptions, Scene};
+
+const REPEATS: usize = 3;
+
+const PARAMS: [&str; 16] = [
+    "objects.cylinder.radius_m",
+    "objects.cylinder.center_m.2",
+    "materials.target.impedance_mrayl",
+    "objects.cylinder.center_m.0",
+    "materials.target.sound_speed_m_s",
+    "materials.target.roughness",
+    "materials.target.attenuation_db_cm_mhz",
+    "medium.sound_speed_m_s",
+    "medium.impedance_mrayl",
+    "medium.attenuation_db_cm_mhz",
+    "probe.pitch_m",
+    "probe.element_width_m",
+    "probe.center_frequency_hz",
+    "probe.cycles",
+    "probe.elevation_m",
+    "acquisition.angles_deg.0",
+];
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cylinder.toml");
+    let scene = Scene::load(p).expect("scene");
+    let opts = RenderOptions::default();
+    let (d, _) = render(&scene, &opts).expect("render");
+    let w: Vec<f64> = d.samples.iter().map(|v| v.signum() * 1e-3).collect();
+    let value = median(
+        (0..REPEATS)
+            .map(|_| {
+                let t = Instant::now();
+                render(&scene, &opts).expect("render");
+                t.elapsed().as_secs_f64()
+            })
+            .collect(),
+    );
+    println!("value (render): {value:.3} s");
+    for n in [3, 16] {
+        let g = median(
+            (0..REPEATS)
+                .map(|_| {
+                    let t = Instant::now();
+                    channel_gradient(&scene, &PARAMS[..n], &w, &opts).expect("gradient");
+                    t.elapsed().as_secs_f64()
+                })
+                .collect(),
+        );
+        println!(
+            "{n} parameters: gradient {g:.3} s; value+gradient / value = {:.2}",
+            (value + g) / value
+        );
+    }
+}
