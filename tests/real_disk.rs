@@ -3,9 +3,9 @@
 //! imported, demodulated to IQ at f_c = 5 MHz with absolute time, beamformed, and
 //! a circle fitted to the disk's edge must have radius 10 mm ± 0.3 mm.
 
-use usray_signal::das::{linspace, Das};
-use usray_signal::demod::IqDemod;
-use usray_signal::{import_mat, Complex64};
+use usray::signal::das::{linspace, Das};
+use usray::signal::demod::IqDemod;
+use usray::signal::{import_mat, Complex64};
 
 /// Least-squares (Kåsa) circle through points: minimises Σ(x² + z² + Dx + Ez + F)².
 fn fit_circle(pts: &[(f64, f64)]) -> (f64, f64, f64) {
@@ -206,14 +206,14 @@ fn pwi_disk_import_then_bmode() {
     };
     let dir = tempfile::tempdir().unwrap();
     let stem = dir.path().join("PWI_disk");
-    usray_signal::write_channels(&stem, &import_mat(&path).unwrap()).unwrap();
-    let ch = usray_signal::read_channels(stem.with_extension("json")).unwrap();
+    usray::signal::write_channels(&stem, &import_mat(&path).unwrap()).unwrap();
+    let ch = usray::signal::read_channels(stem.with_extension("json")).unwrap();
     let frames = ch.meta.frames().unwrap();
     assert_eq!(frames.len(), 32);
     assert!(frames.iter().enumerate().all(|(k, g)| g == &vec![k]));
-    let mut s = usray_signal::ImagingSettings::new([-15e-3, 15e-3], [5e-3, 40e-3], 0.2e-3);
+    let mut s = usray::signal::ImagingSettings::new([-15e-3, 15e-3], [5e-3, 40e-3], 0.2e-3);
     s.f_number = 1.0;
-    let b = usray_signal::BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
+    let b = usray::signal::BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
     assert_eq!(b.n_frames(), 32);
     let mut ws = b.workspace();
     let img = b.forward(&ch, &mut ws).unwrap();
@@ -244,11 +244,11 @@ fn steel_pins_fmc_as_plane_wave() {
     let Some(path) = usray_testdata::data_file("real/ArraySteelPins.mat") else {
         return;
     };
-    let opts = usray_signal::ImportOptions {
+    let opts = usray::signal::ImportOptions {
         pitch_m: Some(1e-3),
         center_frequency_hz: Some(3.5e6),
     };
-    let ch = usray_signal::import_mat_with(&path, &opts).unwrap();
+    let ch = usray::signal::import_mat_with(&path, &opts).unwrap();
     assert_eq!(
         (ch.n_transmits(), ch.n_elements(), ch.n_samples),
         (1, 32, 1750)
@@ -261,13 +261,13 @@ fn steel_pins_fmc_as_plane_wave() {
         ),
         (40e-6, 50e6, 1480.0)
     );
-    let mut s = usray_signal::ImagingSettings::new([-15e-3, 15e-3], [30e-3, 50e-3], 0.05e-3);
+    let mut s = usray::signal::ImagingSettings::new([-15e-3, 15e-3], [30e-3, 50e-3], 0.05e-3);
     s.f_number = 0.0;
-    let b = usray_signal::BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
+    let b = usray::signal::BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
     let mut ws = b.workspace();
     let img = b.forward(&ch, &mut ws).unwrap();
     let env = ws.envelope().to_vec();
-    let k1 = usray_signal::post::argmax(&env);
+    let k1 = usray::signal::post::argmax(&env);
     let p1 = (img.x_m[k1 % img.nx], img.z_m[k1 / img.nx]);
     // Second peak: brightest pixel more than 5 mm from the first.
     let mut k2 = 0;
