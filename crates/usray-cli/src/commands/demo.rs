@@ -161,7 +161,7 @@ pub fn run(common: &Common) -> Result<()> {
     for pair in sweep_plots.chunks(2) {
         writeln!(r, "![{}]({}) ![{}]({})", pair[0], pair[0], pair[1], pair[1])?;
     }
-    writeln!(r, "\nThe gradient is that of the sampled estimator with common random numbers: sampling decisions are held and visibility changes carry no derivative, so FD agrees with AD at intermediate ε and departs at large ε (truncation, visibility changes) and tiny ε (round-off).\n")?;
+    writeln!(r, "\nHow to read this check. Visibility changes carry no derivative, and the ray tracer divides each sampling choice (the Fresnel reflect/transmit split, the GGX lobe) by its probability *detached* (DESIGN.md). That makes the AD gradient an unbiased estimate of the derivative of the *expected* image, but not the derivative of this one fixed-seed realisation, which is what a small-ε finite difference measures: for a reflection chosen with probability R², AD sees R′/R² where the frozen realisation's weight 1/R has derivative −R′/R². Parameters that enter only deterministic quantities (the radius through times of flight, the centre frequency) agree with FD; parameters that enter sampling probabilities (impedance, roughness) can disagree, even in sign, and the fit then stalls short of them. This is a known open problem (issue 5); the planned fix is a sampling proposal frozen independently of the parameters.\n")?;
     writeln!(r, "## Files\n\n`fit.json` (history: loss and every parameter per iteration; final), `fitted.toml` (the scene with the fitted values), `grad.json`, the images and plots above.")?;
     out.write_text("report.md", &r)?;
     eprintln!(
