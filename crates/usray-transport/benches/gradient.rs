@@ -11,24 +11,7 @@ use usray_transport::{channel_gradient, render, RenderOptions, Scene};
 
 const REPEATS: usize = 3;
 
-const PARAMS: [&str; 16] = [
-    "objects.cylinder.radius_m",
-    "objects.cylinder.center_m.2",
-    "materials.target.impedance_mrayl",
-    "objects.cylinder.center_m.0",
-    "materials.target.sound_speed_m_s",
-    "materials.target.roughness",
-    "materials.target.attenuation_db_cm_mhz",
-    "medium.sound_speed_m_s",
-    "medium.impedance_mrayl",
-    "medium.attenuation_db_cm_mhz",
-    "probe.pitch_m",
-    "probe.element_width_m",
-    "probe.center_frequency_hz",
-    "probe.cycles",
-    "probe.elevation_m",
-    "acquisition.angles_deg.0",
-];
+include!("common/cylinder_params.rs");
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);

@@ -10,29 +10,19 @@
 use std::time::Instant;
 use usray_transport::{channel_gradient, render, RenderOptions, Scene};
 
-/// Sixteen parameters of `scenes/cylinder.toml` (the first three: radius,
-/// depth, impedance).
-pub const PARAMS: [&str; 16] = [
-    "objects.cylinder.radius_m",
-    "objects.cylinder.center_m.2",
-    "materials.target.impedance_mrayl",
-    "objects.cylinder.center_m.0",
-    "materials.target.sound_speed_m_s",
-    "materials.target.roughness",
-    "materials.target.attenuation_db_cm_mhz",
-    "medium.sound_speed_m_s",
-    "medium.impedance_mrayl",
-    "medium.attenuation_db_cm_mhz",
-    "probe.pitch_m",
-    "probe.element_width_m",
-    "probe.center_frequency_hz",
-    "probe.cycles",
-    "probe.elevation_m",
-    "acquisition.angles_deg.0",
-];
+include!("../benches/common/cylinder_params.rs");
 
 fn main() {
     let a: Vec<String> = std::env::args().skip(1).collect();
+    let needed = if a.first().is_some_and(|m| m.starts_with("grad")) {
+        4
+    } else {
+        3
+    };
+    if a.len() < needed {
+        eprintln!("usage: gradient_cost value|lift SCENE RAYS  |  gradient_cost grad|grad_fwd SCENE RAYS P");
+        std::process::exit(2);
+    }
     let scene = Scene::load(&a[1]).expect("scene");
     let opts = RenderOptions {
         rays_per_element: Some(a[2].parse().expect("rays")),
