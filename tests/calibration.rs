@@ -77,7 +77,7 @@ fn check(obj: &Objective, at: &[f64], g: &[f64], loss: f64) -> Vec<(String, f64,
         .iter()
         .enumerate()
         .map(|(j, s)| {
-            let steps = log_steps(0.03 * (s.max - s.min), 10f64.sqrt(), 6);
+            let steps = log_steps(1e-3 * (s.max - s.min), 10.0, 6);
             let sweep = fd_sweep(|x: &[f64]| obj.value(x).unwrap().loss, at, j, &steps);
             let best = sweep
                 .iter()

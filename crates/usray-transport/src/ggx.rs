@@ -9,8 +9,9 @@
 //! - Smith `Λ(ω) = (−1 + √(1 + α² tan²θ))/2`, `G1 = 1/(1 + Λ)`, height-correlated
 //!   `G2 = 1/(1 + Λ(i) + Λ(o))` (Heitz 2014, "Understanding the masking-shadowing
 //!   function", eq. 99);
-//! - visible-normal sampling: Heitz 2018, "Sampling the GGX Distribution of Visible
-//!   Normals", JCGT 7(4), listing 1, density `D_i(h) = G1(i) max(0, i·h) D(h) / (i·n)`;
+//! - visible-normal sampling with density `D_i(h) = G1(i) max(0, i·h) D(h) / (i·n)`
+//!   (Heitz 2018, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4),
+//!   eq. 2), drawn by the spherical-cap method (Dupuy & Benyoub 2023);
 //! - reflection `f_r = F·D·G2 / (4 |i·n| |o·n|)`, transmission
 //!   `f_t = |i·h||o·h|/(|i·n||o·n|) · η_o² (1−F)·D·G2 / (η_i (i·h) + η_o (o·h))²`
 //!   (Walter 2007 eqs. 20 and 21) with the refractive index of a medium taken as
@@ -19,9 +20,9 @@
 //!
 //! The Fresnel factor is the acoustic **pressure amplitude** of [`crate::fresnel`]:
 //! `F → R` for reflection and `(1 − F) → T = 1 + R` for transmission, evaluated at
-//! the microfacet normal. The reflect/transmit choice has probability `R²` /
-//! `1 − R²`; the sampled weight is `f·|o·n| / pdf` with the pdf **detached**, whose
-//! value is `(R / R²)·G2/G1` or `(T / (1 − R²))·G2/G1`.
+//! the microfacet normal. An interaction **splits** into both continuations
+//! (reflection with weight `R·G2/G1`, transmission with `T·G2/G1`) instead of
+//! choosing one with probability `R²`: see [`Interface::scatter`].
 //!
 //! Conventions: `wi` points *away* from the surface into the incident medium
 //! (`wi = −d` for a ray travelling along `d`), `n` is the unit macro normal on the
@@ -117,47 +118,26 @@ pub fn g2<T: Real>(cos_i: T, cos_o: T, alpha: T) -> T {
     (T::one() + smith_lambda(cos_i, alpha) + smith_lambda(cos_o, alpha)).recip()
 }
 
-/// Heitz 2018 listing 1: a microfacet normal (local frame, `n = +z`) visible from
-/// the local direction `wi` (`wi.z > 0`), for roughness `alpha`, from two uniforms.
-/// Plain `f64`: sampling is done with detached values (`DESIGN.md`).
-pub fn sample_vndf(wi: [f64; 3], alpha: f64, u1: f64, u2: f64) -> [f64; 3] {
-    // Section 3.2: transform the view direction to the hemisphere configuration.
-    let vh = {
-        let v = [alpha * wi[0], alpha * wi[1], wi[2]];
-        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        [v[0] / l, v[1] / l, v[2] / l]
-    };
-    // Section 4.1: orthonormal basis (with special case if cross product is zero).
-    let lensq = vh[0] * vh[0] + vh[1] * vh[1];
-    let t1 = if lensq > 0.0 {
-        let il = 1.0 / lensq.sqrt();
-        [-vh[1] * il, vh[0] * il, 0.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let t2 = [
-        vh[1] * t1[2] - vh[2] * t1[1],
-        vh[2] * t1[0] - vh[0] * t1[2],
-        vh[0] * t1[1] - vh[1] * t1[0],
-    ];
-    // Section 4.2: parameterization of the projected area.
-    let r = u1.sqrt();
-    let phi = 2.0 * core::f64::consts::PI * u2;
-    let p1 = r * phi.cos();
-    let mut p2 = r * phi.sin();
-    let s = 0.5 * (1.0 + vh[2]);
-    p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * p2;
-    // Section 4.3: reprojection onto the hemisphere.
-    let pz = (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
-    let nh = [
-        p1 * t1[0] + p2 * t2[0] + pz * vh[0],
-        p1 * t1[1] + p2 * t2[1] + pz * vh[1],
-        p1 * t1[2] + p2 * t2[2] + pz * vh[2],
-    ];
-    // Section 3.4: transform the normal back to the ellipsoid configuration.
-    let ne = [alpha * nh[0], alpha * nh[1], nh[2].max(1e-12)];
-    let l = (ne[0] * ne[0] + ne[1] * ne[1] + ne[2] * ne[2]).sqrt();
-    [ne[0] / l, ne[1] / l, ne[2] / l]
+/// A microfacet normal (local frame, `n = +z`) visible from the local direction
+/// `wi` (`wi.z > 0`), for roughness `alpha`, from two uniforms: the spherical-cap
+/// form of visible-normal sampling (Dupuy & Benyoub 2023, "Sampling Visible GGX
+/// Normals with Spherical Caps", listing 3), which draws exactly Heitz's (2018)
+/// density [`vndf_pdf`] and, unlike Heitz's listing 1, needs no tangent frame
+/// around `wi`: the sample is a smooth function of `wi` and `alpha` everywhere
+/// (no `1/sin θi` derivative near normal incidence), so it is differentiated.
+///
+/// Steps: stretch `wi` to the hemisphere configuration, sample the spherical cap
+/// `z ∈ [−wi_std.z, 1]` uniformly, add `wi_std` (the half-vector of the
+/// hemisphere configuration), unstretch.
+pub fn sample_vndf<T: Real>(wi: Vec3<T>, alpha: T, u1: f64, u2: f64) -> Vec3<T> {
+    let wi_std = Vec3::new(alpha * wi.x, alpha * wi.y, wi.z).normalize();
+    let phi = 2.0 * core::f64::consts::PI * u1;
+    let z = T::from_f64(1.0 - u2) * (T::one() + wi_std.z) - wi_std.z;
+    let sin_theta = (T::one() - z * z).clamp(T::zero(), T::one()).safe_sqrt();
+    let c = Vec3::new(sin_theta.scale(phi.cos()), sin_theta.scale(phi.sin()), z);
+    let h_std = c + wi_std;
+    let z_h = h_std.z.max(T::from_f64(1e-12));
+    Vec3::new(alpha * h_std.x, alpha * h_std.y, z_h).normalize()
 }
 
 /// Density of [`sample_vndf`] over microfacet normals (1/sr):
@@ -170,16 +150,26 @@ pub fn vndf_pdf<T: Real>(wi: Vec3<T>, h: Vec3<T>, alpha: T) -> T {
     g1(wi.z, alpha) * ih * ndf(h.z, alpha) / wi.z
 }
 
-/// One sampled scattering at an interface.
+/// One lobe of a scattering: an outgoing direction and its weight.
 #[derive(Clone, Copy, Debug)]
-pub struct Sample<T> {
+pub struct Lobe<T> {
     /// Outgoing unit direction (away from the surface).
     pub wo: Vec3<T>,
-    /// Pressure-amplitude weight `f·|o·n| / pdf` (pdf detached).
+    /// Pressure-amplitude weight `f·|o·n| / pdf`: `R` or `T` for a smooth
+    /// interface, `R·G2/G1` or `T·G2/G1` for a rough one.
     pub weight: T,
-    /// True for reflection, false for transmission into the other medium.
-    pub reflected: bool,
-    /// True when the lobe was a delta (smooth interface).
+}
+
+/// Both continuations of one interaction: reflection and transmission from one
+/// sampled microfacet normal (the path splits; no reflect-or-transmit choice).
+#[derive(Clone, Copy, Debug)]
+pub struct Scatter<T> {
+    /// The reflected continuation (`None` when it leaves the valid hemisphere).
+    pub reflected: Option<Lobe<T>>,
+    /// The transmitted continuation (`None` under total internal reflection or
+    /// when it leaves the valid hemisphere).
+    pub transmitted: Option<Lobe<T>>,
+    /// True when the lobes are deltas (smooth interface).
     pub specular: bool,
 }
 
@@ -188,90 +178,71 @@ impl<T: Real> Interface<T> {
         self.alpha.value() < SMOOTH_ALPHA
     }
 
-    /// Sample the outgoing direction for incident `wi` (away from the surface) at
-    /// a surface with incident-side unit normal `n`, from uniforms `u1, u2` (the
-    /// microfacet normal) and `u_split` (reflect with probability `R²`).
-    /// `None` when the sample leaves the valid hemisphere (the path ends; this is
-    /// the usual unbiased treatment of microfacet samples).
-    pub fn sample(
-        &self,
-        wi: Vec3<T>,
-        n: Vec3<T>,
-        u1: f64,
-        u2: f64,
-        u_split: f64,
-    ) -> Option<Sample<T>> {
+    /// Scatter incident `wi` (away from the surface) at a surface with
+    /// incident-side unit normal `n`: one microfacet normal from uniforms
+    /// `u1, u2`, and **both** its reflection and its transmission, each with its
+    /// own weight (`None` when the interaction is degenerate).
+    ///
+    /// Every step is differentiated, sampling included (the microfacet normal is
+    /// a smooth function of `wi`, `n` and `α` for fixed uniforms), so the
+    /// derivative of a weight is exactly the derivative of the fixed-seed
+    /// estimate, and there is no discrete choice whose probability depends on
+    /// the parameters (the paper's `R²` split would make the fixed-seed estimate
+    /// jump where the choice flips; splitting removes the jump and the
+    /// `1/R` weights of rare reflections).
+    ///
+    /// Weights (Heitz 2018 §2, Walter 2007 eqs. 20–21 over the sampled density
+    /// `D_i(h)` times the half-vector Jacobians): `D` cancels, leaving
+    /// `R·G2(i,o)/G1(i)` for reflection and `T·G2(i,o)/G1(i)` for transmission;
+    /// for a smooth interface simply `R` and `T`.
+    pub fn scatter(&self, wi: Vec3<T>, n: Vec3<T>, u1: f64, u2: f64) -> Option<Scatter<T>> {
         let cos_i = wi.dot(n);
         if cos_i.value() <= 0.0 {
             return None;
         }
         let smooth = self.smooth();
         // Step 1: the microfacet normal (the macro normal for a smooth interface).
-        let frame = Frame::new(n);
-        let (h, pdf_h) = if smooth {
-            (n, T::one())
+        let h = if smooth {
+            n
         } else {
-            let wl = frame.to_local(wi).value();
-            let a = self.alpha.value();
-            let hl = sample_vndf(wl, a, u1, u2);
-            let hl_t = Vec3::from_f64s(hl);
-            // Local h is a constant; the world h follows the (differentiable) frame.
-            let pdf = vndf_pdf(frame.to_local(wi), hl_t, self.alpha);
-            (frame.to_world(hl_t), pdf)
+            let frame = Frame::new(n);
+            frame.to_world(sample_vndf(frame.to_local(wi), self.alpha, u1, u2))
         };
         let cos_ih = wi.dot(h);
         if cos_ih.value() <= 0.0 {
             return None;
         }
-        // Step 2: Fresnel at the microfacet (Kinsler §6.3) and the R² split.
+        // Step 2: Fresnel at the microfacet (Kinsler §6.3).
         let f = fresnel(cos_ih, self.c1, self.c2, self.z1, self.z2);
-        let p_r = if f.tir { 1.0 } else { (f.r * f.r).value() };
-        let reflected = u_split < p_r;
         let d = -wi;
-        let (wo, amp, p_choice) = if reflected {
-            (reflect(d, h), f.r, p_r)
-        } else {
-            (refract(d, h, self.c2 / self.c1, f.cos_t), f.t, 1.0 - p_r)
+        // Step 3: masking–shadowing ratio G2/G1 of the outgoing direction.
+        let shadow = |wo: Vec3<T>| {
+            if smooth {
+                T::one()
+            } else {
+                g2(cos_i, wo.dot(n).abs(), self.alpha) / g1(cos_i, self.alpha)
+            }
         };
-        let cos_o = wo.dot(n);
-        if (reflected && cos_o.value() <= 0.0) || (!reflected && cos_o.value() >= 0.0) {
-            return None;
-        }
-        if p_choice <= 0.0 {
-            return None;
-        }
-        let choice = T::from_f64(p_choice);
-        if smooth {
-            return Some(Sample {
+        let reflected = {
+            let wo = reflect(d, h);
+            (wo.dot(n).value() > 0.0).then(|| Lobe {
                 wo,
-                weight: amp / choice,
-                reflected,
-                specular: true,
-            });
-        }
-        // Step 3: f·|o·n| / pdf, pdf detached (value: amp·G2/G1 / p_choice).
-        let ca = cos_i;
-        let co = cos_o.abs();
-        let d_h = ndf(h.dot(n), self.alpha);
-        let g = g2(ca, co, self.alpha);
-        let weight = if reflected {
-            let f_cos = amp * d_h * g / (ca * T::from_f64(4.0));
-            let pdf = pdf_h / (cos_ih * T::from_f64(4.0));
-            f_cos / pdf.detach()
-        } else {
-            let (ei, eo) = (self.c1.recip(), self.c2.recip());
-            let oh = wo.dot(h);
-            let den = ei * cos_ih + eo * oh;
-            let den2 = den * den;
-            let f_cos = amp * cos_ih * oh.abs() / ca * eo * eo * d_h * g / den2;
-            let pdf = pdf_h * eo * eo * oh.abs() / den2;
-            f_cos / pdf.detach()
+                weight: f.r * shadow(wo),
+            })
         };
-        Some(Sample {
-            wo,
-            weight: weight / choice,
+        let transmitted = if f.tir {
+            None
+        } else {
+            let wo = refract(d, h, self.c2 / self.c1, f.cos_t);
+            (wo.dot(n).value() < 0.0).then(|| Lobe {
+                wo,
+                weight: f.t * shadow(wo),
+            })
+        };
+        Some(Scatter {
             reflected,
-            specular: false,
+            transmitted,
+            specular: smooth,
         })
     }
 
@@ -322,41 +293,41 @@ impl<T: Real> Interface<T> {
         }
     }
 
-    /// Total density of [`Interface::sample`] producing `wo` (1/sr), including the
-    /// `R²` choice; for tests and diagnostics.
-    pub fn pdf(&self, wi: Vec3<T>, wo: Vec3<T>, n: Vec3<T>) -> f64 {
+    /// Density (1/sr) with which [`Interface::scatter`] produces `wo` in the lobe
+    /// `wo` lies in (reflection when on the incident side): the visible-normal
+    /// density times the half-vector Jacobian `1/(4|o·h|)` or
+    /// `η_o²|o·h|/(η_i(i·h) + η_o(o·h))²` (Walter 2007 eqs. 14, 17). Zero for a
+    /// smooth interface. Used for MIS weights, differentiated like the rest.
+    pub fn pdf(&self, wi: Vec3<T>, wo: Vec3<T>, n: Vec3<T>) -> T {
         let frame = Frame::new(n);
         let wil = frame.to_local(wi);
         let cos_o = wo.dot(n).value();
         if self.smooth() || wil.z.value() <= 0.0 || cos_o == 0.0 {
-            return 0.0;
+            return T::zero();
         }
         if cos_o > 0.0 {
             let h = (wi + wo).normalize();
             let ih = wi.dot(h);
-            let f = fresnel(ih, self.c1, self.c2, self.z1, self.z2);
-            let pr = if f.tir { 1.0 } else { (f.r * f.r).value() };
-            let ph = vndf_pdf(wil, frame.to_local(h), self.alpha).value();
-            pr * ph / (4.0 * ih.value())
+            if ih.value() <= 0.0 {
+                return T::zero();
+            }
+            vndf_pdf(wil, frame.to_local(h), self.alpha) / ih.scale(4.0)
         } else {
-            let (ei, eo) = (1.0 / self.c1.value(), 1.0 / self.c2.value());
-            let mut h = -(wi.scale(ei) + wo.scale(eo)).normalize();
+            let (ei, eo) = (self.c1.recip(), self.c2.recip());
+            let mut h = -(wi * ei + wo * eo).normalize();
             if h.dot(n).value() < 0.0 {
                 h = -h;
             }
-            let ih = wi.dot(h).value();
-            let oh = wo.dot(h).value();
-            if ih <= 0.0 || oh >= 0.0 {
-                return 0.0;
+            let ih = wi.dot(h);
+            let oh = wo.dot(h);
+            if ih.value() <= 0.0 || oh.value() >= 0.0 {
+                return T::zero();
             }
-            let f = fresnel(wi.dot(h), self.c1, self.c2, self.z1, self.z2);
-            if f.tir {
-                return 0.0;
+            if fresnel(ih, self.c1, self.c2, self.z1, self.z2).tir {
+                return T::zero();
             }
-            let pt = 1.0 - (f.r * f.r).value();
-            let ph = vndf_pdf(wil, frame.to_local(h), self.alpha).value();
             let den = ei * ih + eo * oh;
-            pt * ph * eo * eo * oh.abs() / (den * den)
+            vndf_pdf(wil, frame.to_local(h), self.alpha) * eo * eo * oh.abs() / (den * den)
         }
     }
 }

@@ -29,15 +29,17 @@
 //! gradient vector per chunk: nothing grows with the ray count.
 //!
 //! # What it is the derivative of
-//! The replay holds every sampling decision and divides by **detached**
-//! probabilities (`R²` split, GGX visible-normal density, MIS weights;
-//! DESIGN.md). That is unbiased for the derivative of the *expected* channel
-//! data; it equals the derivative of the one realization only for parameters
-//! that leave those probabilities unchanged (translations at 0° steering,
-//! attenuation, pulse shape: < 1e-6 against finite differences). Others differ
-//! from a one-realization finite difference by the detached term (measured:
-//! radius 0.6 %, impedance 0.9 %, pitch 1.2 %, sound speed 4.8 %, roughness
-//! 17 %; `tests/gradient_fd.rs`). Visibility changes carry no derivative.
+//! The replay differentiates the realization itself (common random numbers):
+//! every continuous step of a path is differentiated, sampling included (the
+//! microfacet normal is a smooth function of the parameters for fixed uniforms,
+//! MIS weights are differentiated), and no step makes a discrete choice whose
+//! probability depends on a parameter (interactions split into reflection *and*
+//! transmission). Against finite differences of one realization every parameter
+//! agrees to < 1e-6 (`tests/gradient_fd.rs`). Since the estimator is unbiased for
+//! every parameter value and smooth in it, this derivative is also an unbiased
+//! estimate of the derivative of the expected data, up to the one thing not
+//! differentiated: visibility changes (a ray starting or ceasing to hit a
+//! surface or an element face).
 //!
 //! # Determinism
 //! Chunks are those of the render (transmit, block of [`crate::render::ELEMENT_BLOCK`]

@@ -24,10 +24,13 @@
 //!    is purely specular so far.
 //! 4. Advance: time `+= d/c` of the medium crossed, amplitude `×=` attenuation.
 //! 5. At the interface: the media on both sides from the medium stack; a
-//!    receiver connection if the interface is rough; then sample reflection or
-//!    transmission (GGX, `R²` split, detached pdfs), update the stack on
-//!    transmission.
-//! 6. Stop after `max_bounces` interactions, on escape, or a dead sample.
+//!    receiver connection if the interface is rough; then sample one microfacet
+//!    normal (GGX) and **split**: the reflected and the transmitted continuation
+//!    are both traced, each with its own weight (see [`crate::ggx::Interface::scatter`];
+//!    the paper's `R²` choice would make the fixed-seed estimate jump in the
+//!    parameters). The transmitted branch updates the medium stack.
+//! 6. A branch stops after `max_bounces` interactions, on escape, on a dead
+//!    sample, or below [`MIN_BRANCH_AMPLITUDE`].
 //!
 //! **Double counting and MIS.** A path deposits by a direct array hit while every
 //! interaction so far was a delta (smooth) lobe (weight 1). After a rough vertex,
@@ -36,7 +39,7 @@
 //! (density `1/(sel_w·Ω_e)`, `Ω_e = A_e cos θ_e / r²`) and the continuation it
 //! samples reaching element `e`'s face directly with no other interaction
 //! (density `pdf(wi, wo)` of [`crate::ggx::Interface::pdf`]). The weights are
-//! detached values (they sum to one per path, so value and gradient stay
+//! differentiated (they sum to one for any parameters, so value and gradient stay
 //! unbiased); connections that cross a boundary keep weight 1 (the continuation
 //! cannot produce them). A connection crossing a boundary treats it as smooth
 //! (Fresnel `T`, no refraction), so it already estimates every later path that
@@ -147,18 +150,27 @@ impl TraceSettings {
 }
 
 /// Power-heuristic MIS weight (β = 2) of a strategy with density `p` against one
-/// with density `q` (Veach 1997, §9.2.3); values only (detached).
+/// with density `q` (Veach 1997, §9.2.3): `p²/(p² + q²)`. Differentiated (the
+/// weights of the two strategies sum to one for any parameters, so the estimate
+/// stays unbiased and its fixed-seed derivative is exact).
 #[inline]
-fn power_heuristic(p: f64, q: f64) -> f64 {
+fn power_heuristic<T: Real>(p: T, q: T) -> T {
     let (p2, q2) = (p * p, q * q);
-    if p2 + q2 > 0.0 && (p2 + q2).is_finite() {
-        p2 / (p2 + q2)
-    } else if p.is_infinite() {
-        1.0
+    let s = p2 + q2;
+    if s.value() > 0.0 && s.is_finite() {
+        p2 / s
+    } else if p.value().is_infinite() {
+        T::one()
     } else {
-        0.0
+        T::zero()
     }
 }
+
+/// Branches whose path amplitude falls below this are ended: −80 dB, 20 dB below
+/// the deepest dynamic range the display uses by default (60 dB), so the
+/// truncation is invisible in B-mode; it bounds the work of reverberations that
+/// splitting would otherwise follow to `max_bounces`.
+pub const MIN_BRANCH_AMPLITUDE: f64 = 1e-4;
 
 /// Work counters of one trace.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -212,7 +224,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         tau: T,
         e: usize,
         sel_w: f64,
-        p_bsdf: f64,
+        p_bsdf: T,
     ) {
         let st = self.st;
         if f_cos.value() == 0.0 {
@@ -248,12 +260,12 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
                 amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, remaining);
                 let solid = st.element_width * st.elevation * cos_e / (r * r);
                 // Unobstructed: the continuation could have hit the element too.
-                let mis = if crossing == 0 && p_bsdf > 0.0 {
-                    power_heuristic(1.0 / (sel_w * solid.value()), p_bsdf)
+                let mis = if crossing == 0 && p_bsdf.value() > 0.0 {
+                    power_heuristic((solid.scale(sel_w)).recip(), p_bsdf)
                 } else {
-                    1.0
+                    T::one()
                 };
-                let a = amp * solid * fd.scale(sel_w * mis);
+                let a = amp * solid * fd.scale(sel_w) * mis;
                 self.deposit(e, a, time);
                 return;
             };
@@ -329,7 +341,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
             for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {
-                self.connect(q, stack, a_q, f, t_q, e, sel_w, 0.0);
+                self.connect(q, stack, a_q, f, t_q, e, sel_w, T::zero());
             }
         }
     }
@@ -353,6 +365,31 @@ pub fn trace_path<T: Real>(
     out: impl FnMut(Deposit<T>),
 ) -> TraceCounters {
     trace_path_from(st, settings, tx, el, ray, element_stack(st, el), out)
+}
+
+/// One branch of a path: what the path loop carries from vertex to vertex. A
+/// split interaction (reflection and transmission) continues as two branches.
+#[derive(Clone, Copy)]
+struct Branch<T> {
+    origin: Vec3<T>,
+    dir: Vec3<T>,
+    /// Path amplitude so far.
+    w: T,
+    /// Time stamp at `origin`, s.
+    time: T,
+    stack: MediumStack,
+    /// Every interaction so far was a delta lobe.
+    specular_chain: bool,
+    /// Density (1/sr) of the continuation sampled at the previous vertex when it
+    /// was rough and is the last interaction so far (for the MIS'd direct hit).
+    last_rough: Option<T>,
+    /// Rough vertices so far (connections through boundaries cover later
+    /// transmissions; see the module docs).
+    rough_vertices: u32,
+    /// Index of the vertex this branch is heading to (1 = first interaction).
+    bounce: u32,
+    /// Random numbers of this branch (keyed by the branch choices so far).
+    sampler: PathSampler,
 }
 
 /// [`trace_path`] with the element's medium stack given (see [`element_stack`];
@@ -380,19 +417,20 @@ pub fn trace_path_from<T: Real>(
     let xe = element_x(st.pitch, n_el, el);
     let ux = sampler.uniform(0, dim::EMIT_X) - 0.5;
     let uy = sampler.uniform(0, dim::EMIT_Y) - 0.5;
-    let mut origin = Vec3::new(
+    let origin = Vec3::new(
         xe + st.element_width.scale(ux),
         st.elevation.scale(uy),
         T::zero(),
     );
-    let (mut dir, mut w) = match st.emission {
+    let (dir, w) = match st.emission {
         Emission::Cosine => {
             let dl = cosine_hemisphere(
                 sampler.uniform(0, dim::EMIT_U1),
                 sampler.uniform(0, dim::EMIT_U2),
             );
             let dir = Vec3::from_f64s(dl);
-            // f_d(ω)/p(ω) with p = cos θ/π detached, normalised by π: value 1.
+            // f_d(ω)/p(ω) with p = cos θ/π (a constant: the direction does not
+            // depend on parameters), normalised by π: value 1.
             let pdf = dl[2] / core::f64::consts::PI;
             if pdf <= 0.0 {
                 return ctx.counters;
@@ -407,21 +445,50 @@ pub fn trace_path_from<T: Real>(
             (dir, transmit_directivity(dir))
         }
     };
-    let mut time = transmit_delay(xe, st.angles[tx], st.imaging_sound_speed);
-    let mut stack = start_stack;
-    let mut specular_chain = true;
-    // Density (1/sr) of the continuation sampled at the previous vertex when it
-    // was rough and is the last interaction so far (for the MIS'd direct hit).
-    let mut last_rough: Option<f64> = None;
-    // Rough vertices so far (connections through boundaries cover later
-    // transmissions; see the module docs).
-    let mut rough_vertices = 0u32;
+    // Branches still to trace, depth first (at most one pending sibling per
+    // vertex, so the stack stays shorter than `max_bounces + 2`).
+    let mut pending = Vec::with_capacity(settings.max_bounces as usize + 2);
+    pending.push(Branch {
+        origin,
+        dir,
+        w,
+        time: transmit_delay(xe, st.angles[tx], st.imaging_sound_speed),
+        stack: start_stack,
+        specular_chain: true,
+        last_rough: None,
+        rough_vertices: 0,
+        bounce: 1,
+        sampler,
+    });
+    while let Some(b) = pending.pop() {
+        ctx.trace_branch(b, &mut pending);
+    }
+    ctx.counters
+}
 
-    for bounce in 1..=settings.max_bounces + 1 {
+impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
+    /// Trace branch `b` to its next interaction (steps 2–5 of the module docs)
+    /// and push its continuations onto `pending`.
+    fn trace_branch(&mut self, b: Branch<T>, pending: &mut Vec<Branch<T>>) {
+        let st = self.st;
+        let settings = self.settings;
+        let n_el = st.n_elements;
+        let Branch {
+            origin,
+            dir,
+            mut w,
+            mut time,
+            stack,
+            specular_chain,
+            last_rough,
+            rough_vertices,
+            bounce,
+            sampler,
+        } = b;
         let medium = *st.medium_of(stack.top());
         // Step 2: the next interface.
         let r = Ray::new(origin, dir);
-        ctx.counters.rays += 1;
+        self.counters.rays += 1;
         let hit = st.geometry.intersect(&r, T_MIN, f64::INFINITY);
         // The array plane z = 0, reached first by a ray travelling up.
         let t_array = if dir.z.value() < 0.0 {
@@ -438,7 +505,7 @@ pub fn trace_path_from<T: Real>(
         // Step 3a: volume scatterers along the segment.
         if let Some(obj) = stack.top() {
             if medium.scatterer_density_per_mm3.value() > 0.0 && seg_len.is_finite() {
-                ctx.volume(
+                self.volume(
                     obj, &medium, stack, origin, dir, seg_len, w, time, &sampler, bounce,
                 );
             }
@@ -457,34 +524,34 @@ pub fn trace_path_from<T: Real>(
                     // (density 1/(sel_w·Ω_e) of the element's solid angle).
                     let mis = match last_rough {
                         Some(p_b) if !specular_chain => {
-                            let xe = element_x(st.pitch, n_el, e).value();
-                            let ov = origin.value();
-                            let v = [xe - ov[0], -ov[1], -ov[2]];
-                            let r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-                            let cos_e = -v[2] / r2.sqrt();
-                            let solid =
-                                st.element_width.value() * st.elevation.value() * cos_e / r2;
+                            let target =
+                                Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
+                            let v = target - origin;
+                            let r2 = v.length_squared();
+                            let cos_e = -v.z / r2.sqrt();
+                            let solid = st.element_width * st.elevation * cos_e / r2;
                             let sel_w = settings.receiver_weight(n_el, e);
-                            power_heuristic(p_b, 1.0 / (sel_w * solid))
+                            power_heuristic(p_b, solid.scale(sel_w).recip())
                         }
-                        _ => 1.0,
+                        _ => T::one(),
                     };
                     let fd = receive_directivity(-dir.z, st.main_lobe, st.cutoff);
                     let tau = time + t_array / medium.sound_speed;
                     let a = w
-                        * fd.scale(mis)
+                        * fd
+                        * mis
                         * attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, t_array);
-                    ctx.deposit(e, a, tau);
+                    self.deposit(e, a, tau);
                 }
             }
-            break;
+            return;
         };
 
         // Step 4: advance to the interface.
         time += hit.t / medium.sound_speed;
         w *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
         if bounce > settings.max_bounces {
-            break;
+            return;
         }
 
         // Step 5: the interface between the current medium and the other side.
@@ -525,36 +592,44 @@ pub fn trace_path_from<T: Real>(
                         cstack.cross(hit.object, entering);
                     }
                     let p_b = iface.pdf(wi, wo, n_inc);
-                    ctx.connect(hit.point, cstack, w, f_cos, time, e, sel_w, p_b);
+                    self.connect(hit.point, cstack, w, f_cos, time, e, sel_w, p_b);
                 }
             }
         }
 
-        // Step 5b: sample the continuation.
-        let Some(s) = iface.sample(
+        // Step 5b: split into the reflected and the transmitted continuation.
+        let Some(s) = iface.scatter(
             wi,
             n_inc,
             sampler.uniform(bounce, dim::GGX_U1),
             sampler.uniform(bounce, dim::GGX_U2),
-            sampler.uniform(bounce, dim::SPLIT),
         ) else {
-            break;
+            return;
         };
-        w *= s.weight;
-        if !w.is_finite() || w.value() == 0.0 {
-            break;
+        let rough = !s.specular;
+        for (branch, lobe, reflected) in [(1, s.transmitted, false), (0, s.reflected, true)] {
+            let Some(lobe) = lobe else { continue };
+            let w_child = w * lobe.weight;
+            if !w_child.is_finite() || w_child.value().abs() < MIN_BRANCH_AMPLITUDE {
+                continue;
+            }
+            let mut child_stack = stack;
+            if !reflected {
+                child_stack.cross(hit.object, entering);
+            }
+            pending.push(Branch {
+                origin: hit.point,
+                dir: lobe.wo,
+                w: w_child,
+                time,
+                stack: child_stack,
+                specular_chain: specular_chain && !rough,
+                last_rough: (rough && (reflected || rough_vertices == 0))
+                    .then(|| iface.pdf(wi, lobe.wo, n_inc)),
+                rough_vertices: rough_vertices + u32::from(rough),
+                bounce: bounce + 1,
+                sampler: sampler.branch(branch),
+            });
         }
-        last_rough = (!s.specular && (s.reflected || rough_vertices == 0))
-            .then(|| iface.pdf(wi, s.wo, n_inc));
-        if !s.specular {
-            rough_vertices += 1;
-        }
-        dir = s.wo;
-        specular_chain &= s.specular;
-        if !s.reflected {
-            stack.cross(hit.object, entering);
-        }
-        origin = hit.point;
     }
-    ctx.counters
 }

@@ -1,5 +1,5 @@
 //! Counter-based random numbers (pbrt-v4 style): every sample is a pure hash of
-//! its key `(seed, transmit, element, ray, bounce, dimension)`.
+//! its key `(seed, transmit, element, ray, branches, bounce, dimension)`.
 //!
 //! No generator state is carried by a thread, so one thread and many produce
 //! bit-identical samples, and a replay of a path (for gradients, `DESIGN.md`)
@@ -40,8 +40,6 @@ pub mod dim {
     pub const GGX_U1: u32 = 4;
     /// Surface: second microfacet-normal sample.
     pub const GGX_U2: u32 = 5;
-    /// Surface: reflect-or-transmit choice (probability `R²`).
-    pub const SPLIT: u32 = 6;
     /// Receiver connection: which element (uniform).
     pub const ELEMENT: u32 = 7;
     /// Volume: free-flight distance to the next scatterer.
@@ -64,6 +62,16 @@ impl PathSampler {
         let h = fold(h, u64::from(element));
         Self {
             base: fold(h, u64::from(ray)),
+        }
+    }
+
+    /// The sampler of one branch of this path (`branch` 0 = reflected, 1 =
+    /// transmitted continuation of the current vertex): a new key, so the two
+    /// continuations of a split draw independent numbers at their later vertices.
+    #[inline]
+    pub fn branch(&self, branch: u32) -> Self {
+        Self {
+            base: fold(self.base, 0x6272_616e_6368 ^ u64::from(branch)),
         }
     }
 

@@ -44,15 +44,15 @@ fn vndf_samples_follow_their_density_chi2() {
     let (n_ct, n_phi) = (20, 24);
     let n = 400_000usize;
     for &(alpha, theta_i) in &[(0.3f64, 0.5f64), (0.6, 1.2), (0.1, 0.0)] {
-        let wi = [theta_i.sin(), 0.0, theta_i.cos()];
+        let wv = Vec3::new(theta_i.sin(), 0.0, theta_i.cos());
         let mut counts = vec![0f64; n_ct * n_phi];
         for k in 0..n {
             let s = PathSampler::new(11, 0, 0, k as u32);
-            let h = sample_vndf(wi, alpha, s.uniform(0, 0), s.uniform(0, 1));
-            let theta = h[2].clamp(-1.0, 1.0).acos();
+            let h = sample_vndf(wv, alpha, s.uniform(0, 0), s.uniform(0, 1));
+            let theta = h.z.clamp(-1.0, 1.0).acos();
             let q = ((theta.tan() / alpha).atan() / std::f64::consts::FRAC_PI_2)
                 .clamp(0.0, 1.0 - 1e-12);
-            let mut phi = h[1].atan2(h[0]);
+            let mut phi = h.y.atan2(h.x);
             if phi < 0.0 {
                 phi += 2.0 * std::f64::consts::PI;
             }
@@ -60,7 +60,6 @@ fn vndf_samples_follow_their_density_chi2() {
             let j = ((phi / (2.0 * std::f64::consts::PI)) * n_phi as f64) as usize % n_phi;
             counts[i * n_phi + j] += 1.0;
         }
-        let wv = Vec3::new(wi[0], wi[1], wi[2]);
         let mut expected = vec![0f64; n_ct * n_phi];
         let sub = 8;
         for i in 0..n_ct {
@@ -136,9 +135,16 @@ fn sampled_weight_matches_integrated_bsdf() {
         let (mut s1, mut s2) = (0.0, 0.0);
         for k in 0..n {
             let s = PathSampler::new(5, 1, 2, k as u32);
+            // Both continuations of the split: their weights add.
             let w = iface
-                .sample(wi, n_vec, s.uniform(1, 0), s.uniform(1, 1), s.uniform(1, 2))
-                .map(|x| x.weight)
+                .scatter(wi, n_vec, s.uniform(1, 0), s.uniform(1, 1))
+                .map(|x| {
+                    [x.reflected, x.transmitted]
+                        .iter()
+                        .flatten()
+                        .map(|l| l.weight)
+                        .sum::<f64>()
+                })
                 .unwrap_or(0.0);
             s1 += w;
             s2 += w * w;

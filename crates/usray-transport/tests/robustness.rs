@@ -75,11 +75,13 @@ fn grazing_incidence_samples_and_evaluations_are_finite() {
             let wi = Vec3::new(s, 0.0, c);
             for k in 0..64 {
                 let u = |j: u64| ((k * 7 + j * 13) % 64) as f64 / 64.0;
-                if let Some(x) = iface.sample(wi, n, u(1), u(2), u(3)) {
-                    assert!(
-                        x.weight.is_finite() && x.wo.is_finite(),
-                        "α {alpha} cos {c}"
-                    );
+                if let Some(x) = iface.scatter(wi, n, u(1), u(2)) {
+                    for l in [x.reflected, x.transmitted].iter().flatten() {
+                        assert!(
+                            l.weight.is_finite() && l.wo.is_finite(),
+                            "α {alpha} cos {c}"
+                        );
+                    }
                 }
                 let wo = Vec3::new((u(4) - 0.5) * 2.0, u(5) - 0.5, u(6) - 0.5).normalize();
                 assert!(iface.eval(wi, wo, n).is_finite());
