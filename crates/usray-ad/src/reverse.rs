@@ -2,8 +2,10 @@
 //!
 //! Each thread (each rayon worker) owns one tape. A [`Recording`] claims it:
 //! inputs are created with [`Recording::input`], generic code runs in [`Var`]
-//! (every operation appends one node: at most two parents and their partials),
-//! and [`Recording::gradient`] sweeps the tape backwards once, *adding*
+//! (every operation between two non-constant `Var`s appends one node: two
+//! parents and their partials; a unary operation, or a binary one with a
+//! constant argument, appends nothing but multiplies the result's *scale*, the
+//! partial of its value with respect to the node it points at), and [`Recording::gradient`] sweeps the tape backwards once, *adding*
 //! `∂y/∂xᵢ` into a caller-provided slice. Dropping the recording (or
 //! [`Recording::restart`]) clears the tape but keeps its memory, so a per-path
 //! loop allocates nothing once the tape has grown to the longest path. Nothing
@@ -77,6 +79,11 @@ use core::sync::atomic::{AtomicU32, Ordering as AtomicOrdering};
 #[derive(Clone, Copy, Debug)]
 pub struct Var {
     value: f64,
+    /// `∂value/∂(node index)`: the product of the partials of the unary steps
+    /// (and binary steps with a constant operand) applied since that node was
+    /// recorded, which therefore need no node of their own. Never 0 for a
+    /// non-constant (a zero partial turns the result into a constant).
+    scale: f64,
     /// Node index on the tape; 0 = constant (node 0 is a dummy sink).
     index: u32,
     /// Id of the recording the node belongs to (ignored for constants).
@@ -101,9 +108,8 @@ const DUMMY: Node = Node {
     db: 0.0,
 };
 
-/// The per-thread tape. `rec == 0` means no recording is live.
+/// The per-thread tape (the id of the live recording is in [`LIVE`]).
 struct Tape {
-    rec: u32,
     nodes: Vec<Node>,
     inputs: Vec<u32>,
     adj: Vec<f64>,
@@ -120,6 +126,24 @@ thread_local! {
     static TAPE: Cell<Option<&'static RefCell<Tape>>> = const { Cell::new(None) };
     /// Frees this thread's tape buffers when the thread exits.
     static RELEASE: TapeRelease = const { TapeRelease };
+    /// Id of the recording live on this thread, 0 if none. Kept outside the
+    /// tape so that checking a `Var` is one thread-local load, with no borrow.
+    static LIVE: Cell<u32> = const { Cell::new(0) };
+}
+
+/// Id of the recording live on this thread (0 if none).
+#[inline(always)]
+fn live() -> u32 {
+    LIVE.with(Cell::get)
+}
+
+/// Panics unless `rec` is the recording live on this thread.
+#[inline(always)]
+fn check_live(rec: u32) {
+    let live = live();
+    if rec != live {
+        stale(rec, live);
+    }
 }
 
 /// Thread-exit guard: empties the leaked tape's buffers.
@@ -129,7 +153,7 @@ impl Drop for TapeRelease {
     fn drop(&mut self) {
         if let Ok(Some(t)) = TAPE.try_with(Cell::get) {
             if let Ok(mut t) = t.try_borrow_mut() {
-                if t.rec == 0 {
+                if LIVE.try_with(Cell::get) == Ok(0) {
                     t.nodes = Vec::new();
                     t.inputs = Vec::new();
                     t.adj = Vec::new();
@@ -152,7 +176,6 @@ fn tape() -> &'static RefCell<Tape> {
 #[inline(never)]
 fn new_tape() -> &'static RefCell<Tape> {
     let t: &'static RefCell<Tape> = Box::leak(Box::new(RefCell::new(Tape {
-        rec: 0,
         nodes: Vec::new(),
         inputs: Vec::new(),
         adj: Vec::new(),
@@ -225,7 +248,7 @@ impl Tape {
 
     /// Reset for a new recording `id`, keeping capacity.
     fn begin(&mut self, id: u32) {
-        self.rec = id;
+        LIVE.with(|c| c.set(id));
         self.nodes.clear();
         self.inputs.clear();
         self.nodes.push(DUMMY);
@@ -245,6 +268,7 @@ impl Var {
     pub const fn constant(value: f64) -> Self {
         Self {
             value,
+            scale: 0.0,
             index: 0,
             rec: 0,
         }
@@ -308,7 +332,7 @@ impl Recording {
         with_tape(|t| {
             let t = &mut *t.borrow_mut();
             assert!(
-                t.rec == 0,
+                live() == 0,
                 "usray_ad::reverse: nested reverse-mode recordings are not supported \
                  (a Recording is already live on this thread)"
             );
@@ -338,6 +362,7 @@ impl Recording {
             t.inputs.push(i);
             Var {
                 value: x,
+                scale: 1.0,
                 index: i,
                 rec: self.id,
             }
@@ -357,6 +382,7 @@ impl Recording {
                 t.inputs.push(i);
                 *o = Var {
                     value: x,
+                    scale: 1.0,
                     index: i,
                     rec: self.id,
                 };
@@ -436,7 +462,8 @@ impl Recording {
         );
         with_tape(|t| {
             let t = &mut *t.borrow_mut();
-            debug_assert_eq!(t.rec, self.id);
+            let rec = live();
+            debug_assert_eq!(rec, self.id);
             assert_eq!(
                 grad.len(),
                 t.inputs.len(),
@@ -444,17 +471,12 @@ impl Recording {
                 grad.len(),
                 t.inputs.len()
             );
-            let Tape {
-                rec,
-                nodes,
-                inputs,
-                adj,
-            } = t;
+            let Tape { nodes, inputs, adj } = t;
             let mut top = 0usize;
             for y in ys {
                 if y.index != 0 {
-                    if y.rec != *rec {
-                        stale(y.rec, *rec);
+                    if y.rec != rec {
+                        stale(y.rec, rec);
                     }
                     top = top.max(y.index as usize);
                 }
@@ -467,7 +489,11 @@ impl Recording {
             }
             adj[..=top].fill(0.0);
             for (y, &w) in ys.iter().zip(ws) {
-                adj[y.index as usize] += w;
+                // A zero weight contributes nothing, even through an infinite
+                // scale (`0·∞ = 0`).
+                if w != 0.0 {
+                    adj[y.index as usize] += w * y.scale;
+                }
             }
             sweep(nodes, &mut adj[..size], top);
             // An input created after every output cannot influence them.
@@ -528,8 +554,8 @@ fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
 impl Drop for Recording {
     fn drop(&mut self) {
         if let Ok(mut t) = tape().try_borrow_mut() {
-            if t.rec == self.id {
-                t.rec = 0;
+            if live() == self.id {
+                LIVE.with(|c| c.set(0));
                 t.nodes.clear();
                 t.inputs.clear();
             }
@@ -590,23 +616,39 @@ impl Real for Var {
         self.value.is_finite()
     }
 
-    /// Records `y = f(x)` with partial `df`.
+    /// `y = f(x)` with partial `df`: records nothing. The result points at the
+    /// same node as `x`, its scale multiplied by `df` (the chain rule along a
+    /// unary chain). A zero partial gives a constant: the edge carries nothing,
+    /// even an infinite adjoint (`0·∞ = 0`, the convention of `Dual`).
     #[inline(always)]
     fn chain(self, f: f64, df: f64) -> Self {
         if self.index == 0 {
             return Self::constant(f);
         }
-        record(f, self, df, Self::constant(0.0), 0.0)
-    }
-
-    /// Records `z = g(x, y)` with partials `dfdx`, `dfdy` (one node; a constant
-    /// argument points at the dummy node).
-    #[inline(always)]
-    fn chain2(self, other: Self, f: f64, dfdx: f64, dfdy: f64) -> Self {
-        if (self.index | other.index) == 0 {
+        check_live(self.rec);
+        let scale = self.scale * df;
+        if df == 0.0 || scale == 0.0 {
             return Self::constant(f);
         }
-        record(f, self, dfdx, other, dfdy)
+        Self {
+            value: f,
+            scale,
+            index: self.index,
+            rec: self.rec,
+        }
+    }
+
+    /// `z = g(x, y)` with partials `dfdx`, `dfdy`: one node when both arguments
+    /// carry derivatives; with a constant argument this is a unary step
+    /// ([`Real::chain`]) and records nothing.
+    #[inline(always)]
+    fn chain2(self, other: Self, f: f64, dfdx: f64, dfdy: f64) -> Self {
+        match (self.index == 0, other.index == 0) {
+            (true, true) => Self::constant(f),
+            (false, true) => self.chain(f, dfdx),
+            (true, false) => other.chain(f, dfdy),
+            (false, false) => record(f, self, dfdx, other, dfdy),
+        }
     }
 }
 
@@ -616,30 +658,32 @@ impl Real for Var {
 /// single call site of `LocalKey::with` the compiler inlines the TLS access
 /// (several closures at many call sites were left as out-of-line calls plus an
 /// indirect call, ~2× slower reverse mode).
+///
+/// Both `a` and `b` carry derivatives (non-zero index); their scales are folded
+/// into the partials.
 #[inline]
 fn record(value: f64, a: Var, da: f64, b: Var, db: f64) -> Var {
+    let rec = live();
+    if a.rec != rec || b.rec != rec {
+        stale(if a.rec != rec { a.rec } else { b.rec }, rec);
+    }
+    let (ea, eb) = (a.scale * da, b.scale * db);
     with_tape(|t| {
         let t = &mut *t.borrow_mut();
-        let rec = t.rec;
-        // Constants (index 0) belong to no recording; anything else must belong
-        // to the live one.
-        if (a.index != 0 && a.rec != rec) || (b.index != 0 && b.rec != rec) {
-            let bad = if a.index != 0 && a.rec != rec {
-                a.rec
-            } else {
-                b.rec
-            };
-            stale(bad, rec);
-        }
         // A zero partial points at the dummy node: the edge carries nothing,
-        // even an infinite adjoint (`0·∞ = 0`, the convention of `Dual`).
+        // even an infinite adjoint or scale (`0·∞ = 0`, the convention of `Dual`).
         let index = t.push(Node {
-            a: if da == 0.0 { 0 } else { a.index },
-            b: if db == 0.0 { 0 } else { b.index },
-            da,
-            db,
+            a: if da == 0.0 || ea == 0.0 { 0 } else { a.index },
+            b: if db == 0.0 || eb == 0.0 { 0 } else { b.index },
+            da: ea,
+            db: eb,
         });
-        Var { value, index, rec }
+        Var {
+            value,
+            scale: 1.0,
+            index,
+            rec,
+        }
     })
 }
 
