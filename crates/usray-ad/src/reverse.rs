@@ -81,8 +81,9 @@ pub struct Var {
     value: f64,
     /// `∂value/∂(node index)`: the product of the partials of the unary steps
     /// (and binary steps with a constant operand) applied since that node was
-    /// recorded, which therefore need no node of their own. Never 0 for a
-    /// non-constant (a zero partial turns the result into a constant).
+    /// recorded, which therefore need no node of their own. A zero partial
+    /// turns the result into a constant, so this is 0 for a non-constant only
+    /// by underflow.
     scale: f64,
     /// Node index on the tape; 0 = constant (node 0 is a dummy sink).
     index: u32,
@@ -377,9 +378,13 @@ impl Recording {
         assert_eq!(xs.len(), out.len(), "inputs_into: length mismatch");
         with_tape(|t| {
             let t = &mut *t.borrow_mut();
-            for (o, &x) in out.iter_mut().zip(xs) {
-                let i = t.push(DUMMY);
-                t.inputs.push(i);
+            // In bulk: one capacity check per buffer, not one per input.
+            let first = t.nodes.len();
+            let end = first + xs.len();
+            assert!(end < u32::MAX as usize, "reverse tape overflow");
+            t.nodes.resize(end, DUMMY);
+            t.inputs.extend(first as u32..end as u32);
+            for ((o, &x), i) in out.iter_mut().zip(xs).zip(first as u32..) {
                 *o = Var {
                     value: x,
                     scale: 1.0,
@@ -531,23 +536,50 @@ fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
     let mut i = top;
     let mut carry = 0.0;
     while i > 0 {
-        let g = adj[i & mask] + carry;
-        adj[i & mask] = g; // final adjoint of node i (read back for inputs)
-        carry = 0.0;
-        if g != 0.0 {
-            let n = nodes[i];
-            let (ca, cb) = (g * n.da, g * n.db);
-            let prev = (i - 1) as u32;
-            let (a_next, b_next) = (n.a == prev, n.b == prev);
-            carry = if a_next { ca } else { 0.0 } + if b_next { cb } else { 0.0 };
-            if !a_next {
-                adj[n.a as usize & mask] += ca;
+        let own = adj[i & mask];
+        // When nothing but the carry reached node i (the common case along a
+        // chain), its adjoint *is* the carry: branching around the add keeps
+        // it off the critical path (carry → multiply → carry). The two arms
+        // are written out separately so that the compiler keeps a branch
+        // instead of computing both and selecting.
+        if own == 0.0 {
+            if carry != 0.0 {
+                adj[i & mask] = carry; // final adjoint of node i (read back for inputs)
+                carry = propagate(nodes[i], i, carry, adj, mask);
             }
-            if !b_next {
-                adj[n.b as usize & mask] += cb;
-            }
+        } else {
+            let g = own + carry;
+            adj[i & mask] = g;
+            carry = if g != 0.0 {
+                propagate(nodes[i], i, g, adj, mask)
+            } else {
+                0.0
+            };
         }
         i -= 1;
+    }
+}
+
+/// Push the adjoint `g` of node `i` to its parents; returns the part destined
+/// for node `i − 1` (kept in a register by the caller, see [`sweep`]).
+#[inline(always)]
+fn propagate(n: Node, i: usize, g: f64, adj: &mut [f64], mask: usize) -> f64 {
+    let (ca, cb) = (g * n.da, g * n.db);
+    let prev = (i - 1) as u32;
+    let (a_next, b_next) = (n.a == prev, n.b == prev);
+    if !a_next {
+        adj[n.a as usize & mask] += ca;
+    }
+    if !b_next {
+        adj[n.b as usize & mask] += cb;
+    }
+    // No `ca + 0.0` on the common path: that add would sit on the critical
+    // path (carry → add → multiply → carry) of every step.
+    match (a_next, b_next) {
+        (true, true) => ca + cb,
+        (true, false) => ca,
+        (false, true) => cb,
+        (false, false) => 0.0,
     }
 }
 
@@ -627,7 +659,7 @@ impl Real for Var {
         }
         check_live(self.rec);
         let scale = self.scale * df;
-        if df == 0.0 || scale == 0.0 {
+        if df == 0.0 {
             return Self::constant(f);
         }
         Self {
@@ -673,8 +705,8 @@ fn record(value: f64, a: Var, da: f64, b: Var, db: f64) -> Var {
         // A zero partial points at the dummy node: the edge carries nothing,
         // even an infinite adjoint or scale (`0·∞ = 0`, the convention of `Dual`).
         let index = t.push(Node {
-            a: if da == 0.0 || ea == 0.0 { 0 } else { a.index },
-            b: if db == 0.0 || eb == 0.0 { 0 } else { b.index },
+            a: if da == 0.0 { 0 } else { a.index },
+            b: if db == 0.0 { 0 } else { b.index },
             da: ea,
             db: eb,
         });
