@@ -500,7 +500,14 @@ impl Recording {
                     adj[y.index as usize] += w * y.scale;
                 }
             }
-            sweep(nodes, &mut adj[..size], top);
+            // Nodes 1..=lo are inputs (usually all of them, created first):
+            // they have no parents, so the sweep stops above them.
+            let lo = inputs
+                .iter()
+                .zip(1u32..)
+                .take_while(|&(&i, k)| i == k)
+                .count();
+            sweep(nodes, &mut adj[..size], top, lo);
             // An input created after every output cannot influence them.
             for (g, &i) in grad.iter_mut().zip(inputs.iter()) {
                 let i = i as usize;
@@ -512,13 +519,15 @@ impl Recording {
     }
 }
 
-/// The reverse sweep: nodes `top, top−1, …, 1`, each pushing its adjoint to
-/// its parents. A zero adjoint is not propagated (so an infinite partial on a
+/// The reverse sweep: nodes `top, top−1, …, lo + 1`, each pushing its adjoint
+/// to its parents (nodes `1..=lo` must be inputs: they have none, and pushing
+/// their zero partials to the dummy node would chain every step through the
+/// same memory slot). A zero adjoint is not propagated (so an infinite partial on a
 /// branch that does not reach the output gives 0, not `0·∞ = NaN`), and zero
 /// partials were redirected to the dummy node when recorded: `0·∞ = 0`, the
 /// convention of [`crate::Dual`], so both modes agree at singular points.
 #[inline]
-fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
+fn sweep(nodes: &[Node], adj: &mut [f64], top: usize, lo: usize) {
     // `adj.len()` is a power of two above `top`: indexing with `& mask` is then
     // provably in bounds, so the loop carries no bounds checks (and no `unsafe`).
     // Every parent index is below its child, so the mask never changes an index.
@@ -535,7 +544,7 @@ fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
     // which made the sweep ~25% faster on the benchmark kernel.
     let mut i = top;
     let mut carry = 0.0;
-    while i > 0 {
+    while i > lo {
         let own = adj[i & mask];
         // When nothing but the carry reached node i (the common case along a
         // chain), its adjoint *is* the carry: branching around the add keeps
@@ -557,6 +566,10 @@ fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
             };
         }
         i -= 1;
+    }
+    // What the last node processed passed on to node `lo` (an input).
+    if carry != 0.0 {
+        adj[lo & mask] += carry;
     }
 }
 
