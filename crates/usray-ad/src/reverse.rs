@@ -538,33 +538,21 @@ fn sweep(nodes: &[Node], adj: &mut [f64], top: usize, lo: usize) {
     // A `while` loop: `(1..=top).rev()` (an inclusive range) compiles to a
     // noticeably slower loop.
     //
-    // Most nodes feed the node recorded just before them; going through memory
-    // for that edge puts a store-to-load forward on the critical path of every
-    // step. That contribution is carried in a register instead (`carry`),
-    // which made the sweep ~25% faster on the benchmark kernel.
+    // Many nodes feed the node recorded just before them; going through memory
+    // for that edge puts a store-to-load forward on the critical path of the
+    // next step. That contribution is carried in a register instead (`carry`).
+    // (Branching around `adj[i] + carry` when only the carry reached node i,
+    // to shorten the chain further, measured no faster.)
     let mut i = top;
     let mut carry = 0.0;
     while i > lo {
-        let own = adj[i & mask];
-        // When nothing but the carry reached node i (the common case along a
-        // chain), its adjoint *is* the carry: branching around the add keeps
-        // it off the critical path (carry → multiply → carry). The two arms
-        // are written out separately so that the compiler keeps a branch
-        // instead of computing both and selecting.
-        if own == 0.0 {
-            if carry != 0.0 {
-                adj[i & mask] = carry; // final adjoint of node i (read back for inputs)
-                carry = propagate(nodes[i], i, carry, adj, mask);
-            }
+        let g = adj[i & mask] + carry;
+        adj[i & mask] = g;
+        carry = if g != 0.0 {
+            propagate(nodes[i], i, g, adj, mask)
         } else {
-            let g = own + carry;
-            adj[i & mask] = g;
-            carry = if g != 0.0 {
-                propagate(nodes[i], i, g, adj, mask)
-            } else {
-                0.0
-            };
-        }
+            0.0
+        };
         i -= 1;
     }
     // What the last node processed passed on to node `lo` (an input).
