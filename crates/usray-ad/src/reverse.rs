@@ -50,13 +50,15 @@
 //! No `unsafe` is used anywhere.
 //!
 //! # Memory and cost
-//! A node is 24 bytes (two parent indices, two partials); a recording of `n`
-//! operations uses `24·n` bytes of tape plus `8·n` of adjoints, kept across
-//! recordings. Each thread's tape header (≈ 100 bytes) is leaked so that the
-//! thread-local needs no destructor (which keeps every operation's tape access
-//! inline); the buffers themselves are freed at thread exit. On the
-//! tracer-like benchmark kernel (88 nodes) a record + sweep costs ≈ 11× the
-//! plain `f64` evaluation, for any number of inputs (see `docs/performance.md`).
+//! A node is 24 bytes (two parent indices, two partials); a recording with `n`
+//! operations between two non-constant `Var`s uses `24·n` bytes of tape plus
+//! `8·n` of adjoints, kept across recordings (unary steps and operations with
+//! a constant cost no memory; a `Var` is 24 bytes). Each thread's tape header
+//! (≈ 100 bytes) is leaked so that the thread-local needs no destructor (which
+//! keeps every operation's tape access inline); the buffers themselves are
+//! freed at thread exit. On the tracer-like benchmark kernel (61 nodes, of
+//! which 8 inputs) a record + sweep costs ≈ 7.3× the plain `f64` evaluation,
+//! for any number of inputs (see `docs/performance.md`).
 
 use crate::Real;
 use core::cell::{Cell, RefCell};
@@ -68,7 +70,7 @@ use core::sync::atomic::{AtomicU32, Ordering as AtomicOrdering};
 
 /// A reverse-mode variable: a value and the index of its tape node.
 ///
-/// `Copy`, 16 bytes. Comparisons (`==`, `<`, …) look at the value only.
+/// `Copy`, 24 bytes. Comparisons (`==`, `<`, …) look at the value only.
 ///
 /// ```
 /// use usray_ad::reverse::Var;
@@ -92,8 +94,10 @@ pub struct Var {
 }
 
 /// One tape entry: `adj[a] += adj[self]·da`, `adj[b] += adj[self]·db`.
-/// Unary nodes point `b` at the dummy node 0 with `db = 0`; input nodes point
-/// both at 0. This keeps the reverse sweep free of branches on arity.
+/// Every node recorded by an operation has two parents (unary steps record
+/// none, see [`Var`]'s scale); an edge with a zero partial points at the dummy
+/// node 0, and input nodes point both at 0. This keeps the reverse sweep free
+/// of branches on arity.
 #[derive(Clone, Copy, Debug)]
 struct Node {
     a: u32,
@@ -687,8 +691,8 @@ impl Real for Var {
 
 /// Append the node `value ← (a, da), (b, db)` to this thread's tape.
 ///
-/// Deliberately the *only* place an operation touches the thread-local: with a
-/// single call site of `LocalKey::with` the compiler inlines the TLS access
+/// Deliberately the *only* place an operation touches the tape: with a single
+/// call site of `LocalKey::with` the compiler inlines the TLS access
 /// (several closures at many call sites were left as out-of-line calls plus an
 /// indirect call, ~2× slower reverse mode).
 ///
