@@ -2,8 +2,10 @@
 //!
 //! Each thread (each rayon worker) owns one tape. A [`Recording`] claims it:
 //! inputs are created with [`Recording::input`], generic code runs in [`Var`]
-//! (every operation appends one node: at most two parents and their partials),
-//! and [`Recording::gradient`] sweeps the tape backwards once, *adding*
+//! (every operation between two non-constant `Var`s appends one node: two
+//! parents and their partials; a unary operation, or a binary one with a
+//! constant argument, appends nothing but multiplies the result's *scale*, the
+//! partial of its value with respect to the node it points at), and [`Recording::gradient`] sweeps the tape backwards once, *adding*
 //! `∂y/∂xᵢ` into a caller-provided slice. Dropping the recording (or
 //! [`Recording::restart`]) clears the tape but keeps its memory, so a per-path
 //! loop allocates nothing once the tape has grown to the longest path. Nothing
@@ -48,13 +50,15 @@
 //! No `unsafe` is used anywhere.
 //!
 //! # Memory and cost
-//! A node is 24 bytes (two parent indices, two partials); a recording of `n`
-//! operations uses `24·n` bytes of tape plus `8·n` of adjoints, kept across
-//! recordings. Each thread's tape header (≈ 100 bytes) is leaked so that the
-//! thread-local needs no destructor (which keeps every operation's tape access
-//! inline); the buffers themselves are freed at thread exit. On the
-//! tracer-like benchmark kernel (88 nodes) a record + sweep costs ≈ 11× the
-//! plain `f64` evaluation, for any number of inputs (see `docs/performance.md`).
+//! A node is 24 bytes (two parent indices, two partials); a recording with `n`
+//! operations between two non-constant `Var`s uses `24·n` bytes of tape plus
+//! `8·n` of adjoints, kept across recordings (unary steps and operations with
+//! a constant cost no memory; a `Var` is 24 bytes). Each thread's tape header
+//! (≈ 100 bytes) is leaked so that the thread-local needs no destructor (which
+//! keeps every operation's tape access inline); the buffers themselves are
+//! freed at thread exit. On the tracer-like benchmark kernel (61 nodes, of
+//! which 8 inputs) a record + sweep costs ≈ 7.3× the plain `f64` evaluation,
+//! for any number of inputs (see `docs/performance.md`).
 
 use crate::Real;
 use core::cell::{Cell, RefCell};
@@ -66,7 +70,7 @@ use core::sync::atomic::{AtomicU32, Ordering as AtomicOrdering};
 
 /// A reverse-mode variable: a value and the index of its tape node.
 ///
-/// `Copy`, 16 bytes. Comparisons (`==`, `<`, …) look at the value only.
+/// `Copy`, 24 bytes. Comparisons (`==`, `<`, …) look at the value only.
 ///
 /// ```
 /// use usray_ad::reverse::Var;
@@ -77,6 +81,12 @@ use core::sync::atomic::{AtomicU32, Ordering as AtomicOrdering};
 #[derive(Clone, Copy, Debug)]
 pub struct Var {
     value: f64,
+    /// `∂value/∂(node index)`: the product of the partials of the unary steps
+    /// (and binary steps with a constant operand) applied since that node was
+    /// recorded, which therefore need no node of their own. A zero partial
+    /// turns the result into a constant, so this is 0 for a non-constant only
+    /// by underflow.
+    scale: f64,
     /// Node index on the tape; 0 = constant (node 0 is a dummy sink).
     index: u32,
     /// Id of the recording the node belongs to (ignored for constants).
@@ -84,8 +94,10 @@ pub struct Var {
 }
 
 /// One tape entry: `adj[a] += adj[self]·da`, `adj[b] += adj[self]·db`.
-/// Unary nodes point `b` at the dummy node 0 with `db = 0`; input nodes point
-/// both at 0. This keeps the reverse sweep free of branches on arity.
+/// Every node recorded by an operation has two parents (unary steps record
+/// none, see [`Var`]'s scale); an edge with a zero partial points at the dummy
+/// node 0, and input nodes point both at 0. This keeps the reverse sweep free
+/// of branches on arity.
 #[derive(Clone, Copy, Debug)]
 struct Node {
     a: u32,
@@ -101,9 +113,8 @@ const DUMMY: Node = Node {
     db: 0.0,
 };
 
-/// The per-thread tape. `rec == 0` means no recording is live.
+/// The per-thread tape (the id of the live recording is in [`LIVE`]).
 struct Tape {
-    rec: u32,
     nodes: Vec<Node>,
     inputs: Vec<u32>,
     adj: Vec<f64>,
@@ -120,6 +131,24 @@ thread_local! {
     static TAPE: Cell<Option<&'static RefCell<Tape>>> = const { Cell::new(None) };
     /// Frees this thread's tape buffers when the thread exits.
     static RELEASE: TapeRelease = const { TapeRelease };
+    /// Id of the recording live on this thread, 0 if none. Kept outside the
+    /// tape so that checking a `Var` is one thread-local load, with no borrow.
+    static LIVE: Cell<u32> = const { Cell::new(0) };
+}
+
+/// Id of the recording live on this thread (0 if none).
+#[inline(always)]
+fn live() -> u32 {
+    LIVE.with(Cell::get)
+}
+
+/// Panics unless `rec` is the recording live on this thread.
+#[inline(always)]
+fn check_live(rec: u32) {
+    let live = live();
+    if rec != live {
+        stale(rec, live);
+    }
 }
 
 /// Thread-exit guard: empties the leaked tape's buffers.
@@ -129,7 +158,7 @@ impl Drop for TapeRelease {
     fn drop(&mut self) {
         if let Ok(Some(t)) = TAPE.try_with(Cell::get) {
             if let Ok(mut t) = t.try_borrow_mut() {
-                if t.rec == 0 {
+                if LIVE.try_with(Cell::get) == Ok(0) {
                     t.nodes = Vec::new();
                     t.inputs = Vec::new();
                     t.adj = Vec::new();
@@ -152,7 +181,6 @@ fn tape() -> &'static RefCell<Tape> {
 #[inline(never)]
 fn new_tape() -> &'static RefCell<Tape> {
     let t: &'static RefCell<Tape> = Box::leak(Box::new(RefCell::new(Tape {
-        rec: 0,
         nodes: Vec::new(),
         inputs: Vec::new(),
         adj: Vec::new(),
@@ -225,7 +253,7 @@ impl Tape {
 
     /// Reset for a new recording `id`, keeping capacity.
     fn begin(&mut self, id: u32) {
-        self.rec = id;
+        LIVE.with(|c| c.set(id));
         self.nodes.clear();
         self.inputs.clear();
         self.nodes.push(DUMMY);
@@ -245,6 +273,7 @@ impl Var {
     pub const fn constant(value: f64) -> Self {
         Self {
             value,
+            scale: 0.0,
             index: 0,
             rec: 0,
         }
@@ -308,7 +337,7 @@ impl Recording {
         with_tape(|t| {
             let t = &mut *t.borrow_mut();
             assert!(
-                t.rec == 0,
+                live() == 0,
                 "usray_ad::reverse: nested reverse-mode recordings are not supported \
                  (a Recording is already live on this thread)"
             );
@@ -338,6 +367,7 @@ impl Recording {
             t.inputs.push(i);
             Var {
                 value: x,
+                scale: 1.0,
                 index: i,
                 rec: self.id,
             }
@@ -352,11 +382,16 @@ impl Recording {
         assert_eq!(xs.len(), out.len(), "inputs_into: length mismatch");
         with_tape(|t| {
             let t = &mut *t.borrow_mut();
-            for (o, &x) in out.iter_mut().zip(xs) {
-                let i = t.push(DUMMY);
-                t.inputs.push(i);
+            // In bulk: one capacity check per buffer, not one per input.
+            let first = t.nodes.len();
+            let end = first + xs.len();
+            assert!(end < u32::MAX as usize, "reverse tape overflow");
+            t.nodes.resize(end, DUMMY);
+            t.inputs.extend(first as u32..end as u32);
+            for ((o, &x), i) in out.iter_mut().zip(xs).zip(first as u32..) {
                 *o = Var {
                     value: x,
+                    scale: 1.0,
                     index: i,
                     rec: self.id,
                 };
@@ -436,7 +471,8 @@ impl Recording {
         );
         with_tape(|t| {
             let t = &mut *t.borrow_mut();
-            debug_assert_eq!(t.rec, self.id);
+            let rec = live();
+            debug_assert_eq!(rec, self.id);
             assert_eq!(
                 grad.len(),
                 t.inputs.len(),
@@ -444,17 +480,12 @@ impl Recording {
                 grad.len(),
                 t.inputs.len()
             );
-            let Tape {
-                rec,
-                nodes,
-                inputs,
-                adj,
-            } = t;
+            let Tape { nodes, inputs, adj } = t;
             let mut top = 0usize;
             for y in ys {
                 if y.index != 0 {
-                    if y.rec != *rec {
-                        stale(y.rec, *rec);
+                    if y.rec != rec {
+                        stale(y.rec, rec);
                     }
                     top = top.max(y.index as usize);
                 }
@@ -467,9 +498,20 @@ impl Recording {
             }
             adj[..=top].fill(0.0);
             for (y, &w) in ys.iter().zip(ws) {
-                adj[y.index as usize] += w;
+                // A zero weight contributes nothing, even through an infinite
+                // scale (`0·∞ = 0`).
+                if w != 0.0 {
+                    adj[y.index as usize] += w * y.scale;
+                }
             }
-            sweep(nodes, &mut adj[..size], top);
+            // Nodes 1..=lo are inputs (usually all of them, created first):
+            // they have no parents, so the sweep stops above them.
+            let lo = inputs
+                .iter()
+                .zip(1u32..)
+                .take_while(|&(&i, k)| i == k)
+                .count();
+            sweep(nodes, &mut adj[..size], top, lo);
             // An input created after every output cannot influence them.
             for (g, &i) in grad.iter_mut().zip(inputs.iter()) {
                 let i = i as usize;
@@ -481,13 +523,15 @@ impl Recording {
     }
 }
 
-/// The reverse sweep: nodes `top, top−1, …, 1`, each pushing its adjoint to
-/// its parents. A zero adjoint is not propagated (so an infinite partial on a
+/// The reverse sweep: nodes `top, top−1, …, lo + 1`, each pushing its adjoint
+/// to its parents (nodes `1..=lo` must be inputs: they have none, and pushing
+/// their zero partials to the dummy node would chain every step through the
+/// same memory slot). A zero adjoint is not propagated (so an infinite partial on a
 /// branch that does not reach the output gives 0, not `0·∞ = NaN`), and zero
 /// partials were redirected to the dummy node when recorded: `0·∞ = 0`, the
 /// convention of [`crate::Dual`], so both modes agree at singular points.
 #[inline]
-fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
+fn sweep(nodes: &[Node], adj: &mut [f64], top: usize, lo: usize) {
     // `adj.len()` is a power of two above `top`: indexing with `& mask` is then
     // provably in bounds, so the loop carries no bounds checks (and no `unsafe`).
     // Every parent index is below its child, so the mask never changes an index.
@@ -498,38 +542,57 @@ fn sweep(nodes: &[Node], adj: &mut [f64], top: usize) {
     // A `while` loop: `(1..=top).rev()` (an inclusive range) compiles to a
     // noticeably slower loop.
     //
-    // Most nodes feed the node recorded just before them; going through memory
-    // for that edge puts a store-to-load forward on the critical path of every
-    // step. That contribution is carried in a register instead (`carry`),
-    // which made the sweep ~25% faster on the benchmark kernel.
+    // Many nodes feed the node recorded just before them; going through memory
+    // for that edge puts a store-to-load forward on the critical path of the
+    // next step. That contribution is carried in a register instead (`carry`).
+    // (Branching around `adj[i] + carry` when only the carry reached node i,
+    // to shorten the chain further, measured no faster.)
     let mut i = top;
     let mut carry = 0.0;
-    while i > 0 {
+    while i > lo {
         let g = adj[i & mask] + carry;
-        adj[i & mask] = g; // final adjoint of node i (read back for inputs)
-        carry = 0.0;
-        if g != 0.0 {
-            let n = nodes[i];
-            let (ca, cb) = (g * n.da, g * n.db);
-            let prev = (i - 1) as u32;
-            let (a_next, b_next) = (n.a == prev, n.b == prev);
-            carry = if a_next { ca } else { 0.0 } + if b_next { cb } else { 0.0 };
-            if !a_next {
-                adj[n.a as usize & mask] += ca;
-            }
-            if !b_next {
-                adj[n.b as usize & mask] += cb;
-            }
-        }
+        adj[i & mask] = g;
+        carry = if g != 0.0 {
+            propagate(nodes[i], i, g, adj, mask)
+        } else {
+            0.0
+        };
         i -= 1;
+    }
+    // What the last node processed passed on to node `lo` (an input).
+    if carry != 0.0 {
+        adj[lo & mask] += carry;
+    }
+}
+
+/// Push the adjoint `g` of node `i` to its parents; returns the part destined
+/// for node `i − 1` (kept in a register by the caller, see [`sweep`]).
+#[inline(always)]
+fn propagate(n: Node, i: usize, g: f64, adj: &mut [f64], mask: usize) -> f64 {
+    let (ca, cb) = (g * n.da, g * n.db);
+    let prev = (i - 1) as u32;
+    let (a_next, b_next) = (n.a == prev, n.b == prev);
+    if !a_next {
+        adj[n.a as usize & mask] += ca;
+    }
+    if !b_next {
+        adj[n.b as usize & mask] += cb;
+    }
+    // No `ca + 0.0` on the common path: that add would sit on the critical
+    // path (carry → add → multiply → carry) of every step.
+    match (a_next, b_next) {
+        (true, true) => ca + cb,
+        (true, false) => ca,
+        (false, true) => cb,
+        (false, false) => 0.0,
     }
 }
 
 impl Drop for Recording {
     fn drop(&mut self) {
         if let Ok(mut t) = tape().try_borrow_mut() {
-            if t.rec == self.id {
-                t.rec = 0;
+            if live() == self.id {
+                LIVE.with(|c| c.set(0));
                 t.nodes.clear();
                 t.inputs.clear();
             }
@@ -590,56 +653,74 @@ impl Real for Var {
         self.value.is_finite()
     }
 
-    /// Records `y = f(x)` with partial `df`.
+    /// `y = f(x)` with partial `df`: records nothing. The result points at the
+    /// same node as `x`, its scale multiplied by `df` (the chain rule along a
+    /// unary chain). A zero partial gives a constant: the edge carries nothing,
+    /// even an infinite adjoint (`0·∞ = 0`, the convention of `Dual`).
     #[inline(always)]
     fn chain(self, f: f64, df: f64) -> Self {
         if self.index == 0 {
             return Self::constant(f);
         }
-        record(f, self, df, Self::constant(0.0), 0.0)
-    }
-
-    /// Records `z = g(x, y)` with partials `dfdx`, `dfdy` (one node; a constant
-    /// argument points at the dummy node).
-    #[inline(always)]
-    fn chain2(self, other: Self, f: f64, dfdx: f64, dfdy: f64) -> Self {
-        if (self.index | other.index) == 0 {
+        check_live(self.rec);
+        let scale = self.scale * df;
+        if df == 0.0 {
             return Self::constant(f);
         }
-        record(f, self, dfdx, other, dfdy)
+        Self {
+            value: f,
+            scale,
+            index: self.index,
+            rec: self.rec,
+        }
+    }
+
+    /// `z = g(x, y)` with partials `dfdx`, `dfdy`: one node when both arguments
+    /// carry derivatives; with a constant argument this is a unary step
+    /// ([`Real::chain`]) and records nothing.
+    #[inline(always)]
+    fn chain2(self, other: Self, f: f64, dfdx: f64, dfdy: f64) -> Self {
+        match (self.index == 0, other.index == 0) {
+            (true, true) => Self::constant(f),
+            (false, true) => self.chain(f, dfdx),
+            (true, false) => other.chain(f, dfdy),
+            (false, false) => record(f, self, dfdx, other, dfdy),
+        }
     }
 }
 
 /// Append the node `value ← (a, da), (b, db)` to this thread's tape.
 ///
-/// Deliberately the *only* place an operation touches the thread-local: with a
-/// single call site of `LocalKey::with` the compiler inlines the TLS access
+/// Deliberately the *only* place an operation touches the tape: with a single
+/// call site of `LocalKey::with` the compiler inlines the TLS access
 /// (several closures at many call sites were left as out-of-line calls plus an
 /// indirect call, ~2× slower reverse mode).
+///
+/// Both `a` and `b` carry derivatives (non-zero index); their scales are folded
+/// into the partials.
 #[inline]
 fn record(value: f64, a: Var, da: f64, b: Var, db: f64) -> Var {
+    let rec = live();
+    if a.rec != rec || b.rec != rec {
+        stale(if a.rec != rec { a.rec } else { b.rec }, rec);
+    }
+    let (ea, eb) = (a.scale * da, b.scale * db);
     with_tape(|t| {
         let t = &mut *t.borrow_mut();
-        let rec = t.rec;
-        // Constants (index 0) belong to no recording; anything else must belong
-        // to the live one.
-        if (a.index != 0 && a.rec != rec) || (b.index != 0 && b.rec != rec) {
-            let bad = if a.index != 0 && a.rec != rec {
-                a.rec
-            } else {
-                b.rec
-            };
-            stale(bad, rec);
-        }
         // A zero partial points at the dummy node: the edge carries nothing,
-        // even an infinite adjoint (`0·∞ = 0`, the convention of `Dual`).
+        // even an infinite adjoint or scale (`0·∞ = 0`, the convention of `Dual`).
         let index = t.push(Node {
             a: if da == 0.0 { 0 } else { a.index },
             b: if db == 0.0 { 0 } else { b.index },
-            da,
-            db,
+            da: ea,
+            db: eb,
         });
-        Var { value, index, rec }
+        Var {
+            value,
+            scale: 1.0,
+            index,
+            rec,
+        }
     })
 }
 
