@@ -11,15 +11,27 @@
 //! assert!(path.exists());
 //! ```
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// The data root, if one exists: `$USRAY_TEST_DATA`, else `<workspace>/../shared/data`.
+///
+/// The workspace is found **at run time**: the nearest ancestor holding
+/// `Cargo.lock` of the directory `cargo test` runs the test from
+/// (`$CARGO_MANIFEST_DIR`, else the current directory). A compile-time
+/// `env!("CARGO_MANIFEST_DIR")` would go stale when a build cache is reused from a
+/// checkout at another path (cargo does not rebuild a path crate that moved).
 pub fn data_root() -> Option<PathBuf> {
     if let Some(dir) = std::env::var_os("USRAY_TEST_DATA") {
         let dir = PathBuf::from(dir);
         return dir.is_dir().then_some(dir);
     }
-    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let start = std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .or_else(|| std::env::current_dir().ok())?;
+    let workspace = start
+        .ancestors()
+        .find(|d| d.join("Cargo.lock").is_file())?
+        .to_path_buf();
     let dir = workspace.join("../shared/data");
     dir.is_dir().then(|| dir.canonicalize().unwrap_or(dir))
 }
