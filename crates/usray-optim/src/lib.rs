@@ -37,6 +37,7 @@ mod loss;
 mod objective;
 mod params;
 mod reference;
+pub mod residual;
 
 pub use adam::{Adam, AdamGroup};
 pub use fd::{fd_sweep, log_steps, FdPoint};
@@ -47,6 +48,7 @@ pub use objective::{
 };
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
 pub use reference::load_reference;
+pub use residual::{analyse_residual, RegionShare, ResidualOptions, ResidualReport};
 
 /// An error of the calibration layer, with a one-line message.
 #[derive(Debug, thiserror::Error)]
@@ -66,4 +68,7 @@ pub enum OptimError {
     /// A micro-batch is malformed.
     #[error("micro-batch: {0}")]
     Batch(String),
+    /// The residual diagnosis got unusable images or options ([`residual`]).
+    #[error("diagnosis: {0}")]
+    Diagnosis(String),
 }
