@@ -152,9 +152,27 @@ pub enum Command {
     Diagnose {
         /// Scene file (TOML) of the base model.
         scene: PathBuf,
-        /// Measured data: channel data (.json) or a B-mode.
+        /// Measured data: channel data (.json) or a B-mode (.npy, or .png with a
+        /// sidecar .json).
         #[arg(long)]
         measured: PathBuf,
+        /// Free parameters of the base model, comma-separated, each optionally
+        /// `PATH=MIN:MAX` (default: each object's radius, each object material's
+        /// impedance and roughness).
+        #[arg(long, value_delimiter = ',')]
+        params: Vec<String>,
+        /// Adam iterations of the calibration and of each confirming refit.
+        #[arg(long, default_value_t = 40)]
+        iters: usize,
+        /// How many of the best-scored effects are confirmed by a refit.
+        #[arg(long, value_name = "N", default_value_t = 2)]
+        confirm: usize,
+        /// Override the scene's `acquisition.rays_per_element`.
+        #[arg(long, value_name = "N")]
+        rays: Option<usize>,
+        /// Override the scene's `acquisition.seed` (held-out data use seed + 1).
+        #[arg(long)]
+        seed: Option<u64>,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

@@ -179,6 +179,21 @@ pub fn overlay_png(
     write_rgb_png(path, nx as u32, nz as u32, buf)
 }
 
+/// The signed residual map of [`usray_optim::residual::signed_residual_rgb`]
+/// (red: simulation brighter than measurement, blue: darker) as a PNG; returns
+/// the grey-level difference that saturates the colours.
+pub fn residual_png(
+    path: &Path,
+    nz: usize,
+    nx: usize,
+    simulated: &[f64],
+    measured: &[f64],
+) -> Result<f64> {
+    let map = usray_optim::residual::signed_residual_rgb(simulated, measured, nz, nx, None)?;
+    write_rgb_png(path, map.width as u32, map.height as u32, map.rgb)?;
+    Ok(map.scale)
+}
+
 fn write_rgb_png(path: &Path, width: u32, height: u32, buf: Vec<u8>) -> Result<()> {
     let img = image::RgbImage::from_raw(width, height, buf)
         .context("internal: image buffer does not match its size")?;

@@ -31,6 +31,7 @@
 //! ```
 
 mod adam;
+mod diagnose;
 mod fd;
 mod fit;
 mod loss;
@@ -40,6 +41,10 @@ mod reference;
 pub mod residual;
 
 pub use adam::{Adam, AdamGroup};
+pub use diagnose::{
+    catalogue, default_free_params, diagnose, Calibrated, Candidate, DiagnoseOptions, Diagnosis,
+    EffectResult, Timings, Verdict, SCATTERER_DENSITY_PER_MM3,
+};
 pub use fd::{fd_sweep, log_steps, FdPoint};
 pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};
 pub use loss::L1L2;

@@ -3,6 +3,7 @@
 mod beamform;
 pub mod calib;
 pub mod demo;
+mod diagnose;
 pub mod fit;
 mod grad;
 mod import;
@@ -62,10 +63,26 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             },
             common,
         ),
-        Command::Diagnose { .. } => not_yet("diagnose", "the sim-to-real diagnosis (issue 6)"),
+        Command::Diagnose {
+            scene,
+            measured,
+            params,
+            iters,
+            confirm,
+            rays,
+            seed,
+            common,
+        } => diagnose::run(
+            scene,
+            measured,
+            &diagnose::DiagnoseArgs {
+                params: params.clone(),
+                iters: *iters,
+                confirm: *confirm,
+                rays: *rays,
+                seed: *seed,
+            },
+            common,
+        ),
     })?
-}
-
-fn not_yet(command: &str, needs: &str) -> anyhow::Result<()> {
-    anyhow::bail!("`usray {command}` is not available in this build yet: it needs {needs}")
 }

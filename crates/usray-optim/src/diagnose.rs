@@ -1,0 +1,545 @@
+//! The sim-to-real diagnosis (CONTRACT §4 `usray diagnose`, §5 `diagnosis.json`):
+//! calibrate, locate the residual, rank candidate unmodelled effects by one
+//! gradient each, confirm the leading ones by refitting, measure how far each
+//! shrinks the gap on held-out data, and give a verdict.
+//!
+//! # Steps
+//! 1. **Calibrate**: fit the base scene's free parameters ([`default_free_params`]
+//!    unless named) to the measured B-mode, [`DiagnoseOptions::calibration_iters`]
+//!    Adam iterations with common random numbers (seed `s`).
+//! 2. **Where**: [`crate::residual::analyse_residual`] of the calibrated image.
+//! 3. **Which**: every candidate of [`catalogue`] is switched on at its *onset*
+//!    value (its null value where the model is smooth there; a small
+//!    strength where the null value is a change of structure, such as a wall
+//!    appearing inside a solid cylinder) and scored from **one value + gradient**
+//!    of the loss in its own parameter:
+//!
+//!    `score = [max(0, L_cal − L_on) + max(0, −g·Δ)] / L_cal` (two-sided
+//!    parameters: `|g|·Δ`),
+//!
+//!    the first-order predicted relative loss reduction for a step `Δ` of 5% of
+//!    the parameter's range from its onset. The [`DiagnoseOptions::confirm_top`]
+//!    best are refitted (effect parameter + the base free parameters,
+//!    [`DiagnoseOptions::refit_iters`] iterations).
+//! 4. **How far it shrinks**: losses on **held-out** data: the simulation is
+//!    re-rendered with an independent seed `s + 1` (other paths) at the
+//!    calibrated and at the refitted parameters, so an effect that only fits the
+//!    Monte Carlo noise of seed `s` does not look like an explanation:
+//!    `shrink = 1 − loss_after / loss_calibrated`, both held out.
+//! 5. **Verdict**: the confirmed effect with the largest shrink if it reaches
+//!    [`DiagnoseOptions::min_shrink`]; otherwise `"none"` when the held-out
+//!    calibrated loss is within [`DiagnoseOptions::noise_factor`] of the Monte
+//!    Carlo noise level (the loss between the calibrated model rendered with
+//!    seeds `s` and `s + 1`), and `"unexplained"` when a real gap remains.
+
+use crate::fit::{fit, FitOptions};
+use crate::objective::Objective;
+use crate::params::ParamSpec;
+use crate::residual::{analyse_residual, ResidualOptions, ResidualReport};
+use crate::OptimError;
+use std::collections::BTreeMap;
+use std::time::Instant;
+use usray_transport::scene::ShapeKind;
+use usray_transport::{RenderOptions, Scene};
+
+/// Fixed density of the `volume_scattering` candidate, scatterers per mm³ (well
+/// above the ≈ 10 per resolution cell of fully developed speckle at 5 MHz); its
+/// strength is what is scored and fitted.
+pub const SCATTERER_DENSITY_PER_MM3: f64 = 5.0;
+
+/// One candidate unmodelled effect: how to switch it on and which parameter
+/// carries its strength.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Candidate {
+    /// Effect name (CONTRACT §5): `wall_thickness`, `attenuation`, …
+    pub effect: String,
+    /// The strength parameter's dotted path once switched on.
+    pub path: String,
+    /// Value at which the extension gives back the base model.
+    pub null: f64,
+    /// Value at which it is scored (the null where the model is smooth there).
+    pub onset: f64,
+    /// Admissible range of the parameter in a refit.
+    pub range: (f64, f64),
+    /// Whether the parameter may move either way from its null (sound speed,
+    /// depth gain) or only up (thickness, attenuation, scattering).
+    pub two_sided: bool,
+    /// Other scene values set with the switch (e.g. the scatterer density).
+    pub fixed: Vec<(String, f64)>,
+}
+
+impl Candidate {
+    /// `scene` with this effect switched on at `value` (and its fixed settings).
+    ///
+    /// # Errors
+    /// A path the scene does not have.
+    pub fn switched_on(&self, scene: &Scene, value: f64) -> Result<Scene, OptimError> {
+        let mut s = scene.clone();
+        switch_on(&mut s, &self.path, value)?;
+        for (p, v) in &self.fixed {
+            switch_on(&mut s, p, *v)?;
+        }
+        Ok(s)
+    }
+}
+
+/// Sets `path` to `value`, creating the optional keys an effect switches on
+/// (`objects.NAME.thickness_m`, `imaging.sound_speed_m_s`).
+fn switch_on(s: &mut Scene, path: &str, value: f64) -> Result<(), OptimError> {
+    if let Some(name) = path
+        .strip_prefix("objects.")
+        .and_then(|p| p.strip_suffix(".thickness_m"))
+    {
+        let o = s
+            .objects
+            .iter_mut()
+            .find(|o| o.name == name)
+            .ok_or_else(|| OptimError::Diagnosis(format!("no object `{name}` for {path}")))?;
+        o.thickness_m = Some(value);
+    } else if path == "imaging.sound_speed_m_s" {
+        s.imaging.sound_speed_m_s = Some(value);
+    } else {
+        s.set(path, value)?;
+    }
+    s.validate()?;
+    Ok(())
+}
+
+/// The candidate effects for `scene` (CONTRACT §3): a wall for each solid
+/// cylinder, attenuation of the medium, scatterers in each object's material, a
+/// medium sound speed different from the beamformer's, and a depth gain.
+/// Effects the scene already has switched on are not candidates.
+pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let lambda = scene.medium.sound_speed_m_s / scene.probe.center_frequency_hz;
+    for o in &scene.objects {
+        if o.shape == ShapeKind::Cylinder && o.thickness_m.is_none() {
+            if let Some(r) = o.radius_m {
+                // Onset: one wavelength of wall (the null, a solid cylinder, is a
+                // change of structure: a wall of zero thickness is invisible).
+                out.push(Candidate {
+                    effect: "wall_thickness".into(),
+                    path: format!("objects.{}.thickness_m", o.name),
+                    null: r,
+                    onset: lambda.min(0.5 * r),
+                    range: (0.25 * lambda.min(0.5 * r), 0.95 * r),
+                    two_sided: false,
+                    fixed: vec![],
+                });
+            }
+        }
+    }
+    if scene.medium.attenuation_db_cm_mhz == 0.0 {
+        out.push(Candidate {
+            effect: "attenuation".into(),
+            path: "medium.attenuation_db_cm_mhz".into(),
+            null: 0.0,
+            onset: 0.0,
+            range: (0.0, 2.0),
+            two_sided: false,
+            fixed: vec![],
+        });
+    }
+    let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
+    materials.sort_unstable();
+    materials.dedup();
+    for m in materials {
+        if scene.materials.get(m).is_some_and(|mat| {
+            mat.scatterer_density_per_mm3 == 0.0 || mat.scatterer_strength == 0.0
+        }) {
+            out.push(Candidate {
+                effect: "volume_scattering".into(),
+                path: format!("materials.{m}.scatterer_strength"),
+                null: 0.0,
+                onset: 0.1,
+                range: (0.0, 2.0),
+                two_sided: false,
+                fixed: vec![(
+                    format!("materials.{m}.scatterer_density_per_mm3"),
+                    SCATTERER_DENSITY_PER_MM3,
+                )],
+            });
+        }
+    }
+    let c_img = scene
+        .imaging
+        .sound_speed_m_s
+        .unwrap_or(scene.medium.sound_speed_m_s);
+    if (c_img - scene.medium.sound_speed_m_s).abs() < 1e-9 {
+        // Switched on by giving the beamformer its own speed, so that the medium's
+        // speed is free to differ from it.
+        out.push(Candidate {
+            effect: "sound_speed".into(),
+            path: "medium.sound_speed_m_s".into(),
+            null: c_img,
+            onset: c_img,
+            range: (0.93 * c_img, 1.07 * c_img),
+            two_sided: true,
+            fixed: vec![("imaging.sound_speed_m_s".into(), c_img)],
+        });
+    }
+    if scene.acquisition.depth_gain_db_per_cm == 0.0 {
+        out.push(Candidate {
+            effect: "depth_gain".into(),
+            path: "acquisition.depth_gain_db_per_cm".into(),
+            null: 0.0,
+            onset: 0.0,
+            range: (-3.0, 3.0),
+            two_sided: true,
+            fixed: vec![],
+        });
+    }
+    out
+}
+
+/// The documented default free parameters of the base model: each object's
+/// radius (cylinders, spheres) and, for each object's material, its impedance
+/// and (if rough) roughness.
+pub fn default_free_params(scene: &Scene) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut seen = Vec::new();
+    for o in &scene.objects {
+        if o.radius_m.is_some() {
+            out.push(format!("objects.{}.radius_m", o.name));
+        }
+        if !seen.contains(&o.material) {
+            seen.push(o.material.clone());
+            out.push(format!("materials.{}.impedance_mrayl", o.material));
+            if scene
+                .materials
+                .get(&o.material)
+                .is_some_and(|m| m.roughness > 0.0)
+            {
+                out.push(format!("materials.{}.roughness", o.material));
+            }
+        }
+    }
+    out
+}
+
+/// Settings of a diagnosis.
+#[derive(Clone, Debug)]
+pub struct DiagnoseOptions {
+    /// Free parameters of the base model (`PATH` or `PATH=MIN:MAX`); empty =
+    /// [`default_free_params`].
+    pub free_params: Vec<String>,
+    /// Adam iterations of the calibration (default 40).
+    pub calibration_iters: usize,
+    /// Adam iterations of each confirming refit (default 40).
+    pub refit_iters: usize,
+    /// How many of the best-scored candidates are refitted (default 2).
+    pub confirm_top: usize,
+    /// Smallest held-out shrink that names an effect (default 0.2).
+    pub min_shrink: f64,
+    /// "none" when the held-out calibrated loss is at most this multiple of the
+    /// Monte Carlo noise level (default 1.5).
+    pub noise_factor: f64,
+    /// Fit settings shared by calibration and refits (iterations overridden).
+    pub fit: FitOptions,
+    /// Render options of the simulation (rays, seed `s`, threads).
+    pub render: RenderOptions,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        Self {
+            free_params: Vec::new(),
+            calibration_iters: 40,
+            refit_iters: 40,
+            confirm_top: 2,
+            min_shrink: 0.2,
+            noise_factor: 1.5,
+            fit: FitOptions::default(),
+            render: RenderOptions::default(),
+        }
+    }
+}
+
+/// The calibrated base model.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Calibrated {
+    /// Fitted free parameters.
+    pub params: BTreeMap<String, f64>,
+    /// Loss at the calibrated parameters, seed `s` (the fit's own data).
+    pub loss: f64,
+    /// Loss at the calibrated parameters re-rendered with seed `s + 1`.
+    pub loss_held_out: f64,
+}
+
+/// One scored (and possibly refitted) candidate.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EffectResult {
+    /// Effect name.
+    pub effect: String,
+    /// Its strength parameter.
+    pub path: String,
+    /// Predicted relative loss reduction (module docs, step 3).
+    pub score: f64,
+    /// `∂L/∂θ` of the effect parameter at its onset.
+    pub gradient: f64,
+    /// Loss with the effect at its onset.
+    pub loss_onset: f64,
+    /// Held-out loss after the refit (absent when not refitted).
+    pub loss_after: Option<f64>,
+    /// `1 − loss_after / calibrated.loss_held_out` (absent when not refitted).
+    pub shrink: Option<f64>,
+    /// Parameters found by the refit (effect and base).
+    pub params: BTreeMap<String, f64>,
+}
+
+/// The verdict.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Verdict {
+    /// An effect name, `"none"` or `"unexplained"`.
+    pub effect: String,
+    /// The named effect's held-out shrink (0 for none/unexplained).
+    pub shrink: f64,
+}
+
+/// Wall time of the diagnosis steps, seconds.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Timings {
+    /// Step 1.
+    pub calibration_s: f64,
+    /// Step 3, scoring every candidate.
+    pub scoring_s: f64,
+    /// Step 3–4, the refits and their held-out evaluation.
+    pub refits_s: f64,
+    /// Noise level and held-out evaluation of the calibrated model.
+    pub held_out_s: f64,
+}
+
+/// Everything a diagnosis found (serialised as `diagnosis.json`, CONTRACT §5).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Diagnosis {
+    /// Step 1.
+    pub calibrated: Calibrated,
+    /// Step 2: region shares of the calibrated residual (all partitions).
+    #[serde(rename = "where")]
+    pub where_: Vec<crate::residual::RegionShare>,
+    /// Step 3–4, ranked by score, most responsible first.
+    pub effects: Vec<EffectResult>,
+    /// Step 5.
+    pub verdict: Verdict,
+    /// Monte Carlo noise level: loss between the calibrated model's images for
+    /// seeds `s` and `s + 1`.
+    pub noise_loss: f64,
+    /// Where each step's time went.
+    pub timings: Timings,
+    /// The full residual analysis of the calibrated model (kinds of residual).
+    #[serde(skip)]
+    pub residual: ResidualReport,
+    /// Calibrated simulated image (seed `s`).
+    #[serde(skip)]
+    pub calibrated_image: Vec<f64>,
+    /// Simulated image after the verdict's refit (the calibrated one when none).
+    #[serde(skip)]
+    pub after_image: Vec<f64>,
+}
+
+/// Runs the diagnosis of `scene` against the measured B-mode `measured` (`[nz, nx]`
+/// on the scene's grid); `progress` receives one line per step.
+///
+/// # Errors
+/// A parameter the scene does not have, a measured image of the wrong shape, or
+/// any failing render.
+pub fn diagnose(
+    scene: &Scene,
+    measured: &[f64],
+    opts: &DiagnoseOptions,
+    mut progress: impl FnMut(&str),
+) -> Result<Diagnosis, OptimError> {
+    let mut timings = Timings::default();
+    let seed = opts.render.seed.unwrap_or(scene.acquisition.seed);
+    let render_s = RenderOptions {
+        seed: Some(seed),
+        ..opts.render.clone()
+    };
+    let render_held = RenderOptions {
+        seed: Some(seed.wrapping_add(1)),
+        ..opts.render.clone()
+    };
+    let free: Vec<String> = if opts.free_params.is_empty() {
+        default_free_params(scene)
+    } else {
+        opts.free_params.clone()
+    };
+    let specs = free
+        .iter()
+        .map(|p| {
+            let path = p.split_once('=').map_or(p.as_str(), |(a, _)| a).trim();
+            Ok(ParamSpec::parse(p, scene.get(path)?)?)
+        })
+        .collect::<Result<Vec<_>, OptimError>>()?;
+
+    // Step 1: calibrate.
+    let t = Instant::now();
+    progress(&format!("calibrating {} parameter(s)", specs.len()));
+    let mut base = Objective::new(
+        scene.clone(),
+        measured.to_vec(),
+        specs.clone(),
+        render_s.clone(),
+    )?;
+    let start = base.initial_physical();
+    let cal = fit(
+        &mut base,
+        &start,
+        &FitOptions {
+            iters: opts.calibration_iters,
+            ..opts.fit.clone()
+        },
+        |_| {},
+    )?;
+    let cal_scene = base.scene_at(&cal.final_params)?;
+    let cal_eval = base.value(&cal.final_params)?;
+    timings.calibration_s = t.elapsed().as_secs_f64();
+
+    // Held-out loss and Monte Carlo noise level of the calibrated model.
+    let t = Instant::now();
+    let held = Objective::new(
+        cal_scene.clone(),
+        measured.to_vec(),
+        vec![],
+        render_held.clone(),
+    )?
+    .value(&[])?;
+    let noise_loss = base.loss.value(&held.image.data, &cal_eval.image.data);
+    timings.held_out_s = t.elapsed().as_secs_f64();
+
+    // Step 2: where.
+    let residual = analyse_residual(
+        &cal_scene,
+        &cal_eval.image.data,
+        measured,
+        &ResidualOptions::default(),
+    )?;
+
+    // Step 3: score every candidate by one value + gradient at its onset.
+    let t = Instant::now();
+    let candidates = catalogue(&cal_scene);
+    let mut effects = Vec::new();
+    for c in &candidates {
+        progress(&format!("scoring {}", c.effect));
+        let on = c.switched_on(&cal_scene, c.onset)?;
+        let spec = ParamSpec {
+            path: c.path.clone(),
+            min: c.range.0,
+            max: c.range.1,
+        };
+        let obj = Objective::new(on, measured.to_vec(), vec![spec], render_s.clone())?;
+        let e = obj.value_and_gradient(&[c.onset])?;
+        let g = e.gradient[0];
+        let step = 0.05 * (c.range.1 - c.range.0);
+        let first_order = if c.two_sided { g.abs() } else { (-g).max(0.0) } * step;
+        let score = ((cal_eval.loss - e.loss).max(0.0) + first_order) / cal_eval.loss;
+        effects.push(EffectResult {
+            effect: c.effect.clone(),
+            path: c.path.clone(),
+            score,
+            gradient: g,
+            loss_onset: e.loss,
+            loss_after: None,
+            shrink: None,
+            params: BTreeMap::new(),
+        });
+    }
+    timings.scoring_s = t.elapsed().as_secs_f64();
+    let mut order: Vec<usize> = (0..effects.len()).collect();
+    order.sort_by(|&a, &b| effects[b].score.total_cmp(&effects[a].score));
+
+    // Step 4: refit the leading candidates; held-out shrink.
+    let t = Instant::now();
+    let mut best: Option<(usize, f64, Vec<f64>)> = None;
+    for &k in order.iter().take(opts.confirm_top) {
+        let c = &candidates[k];
+        progress(&format!("refitting with {}", c.effect));
+        let on = c.switched_on(&cal_scene, c.onset)?;
+        let mut refit_specs = vec![ParamSpec {
+            path: c.path.clone(),
+            min: c.range.0,
+            max: c.range.1,
+        }];
+        refit_specs.extend(specs.iter().cloned());
+        let mut obj = Objective::new(on, measured.to_vec(), refit_specs, render_s.clone())?;
+        let x0 = obj.initial_physical();
+        let r = fit(
+            &mut obj,
+            &x0,
+            &FitOptions {
+                iters: opts.refit_iters,
+                ..opts.fit.clone()
+            },
+            |_| {},
+        )?;
+        let fitted = obj.scene_at(&r.final_params)?;
+        let after = Objective::new(
+            fitted.clone(),
+            measured.to_vec(),
+            vec![],
+            render_held.clone(),
+        )?
+        .value(&[])?;
+        let shrink = 1.0 - after.loss / held.loss;
+        let e = &mut effects[k];
+        e.loss_after = Some(after.loss);
+        e.shrink = Some(shrink);
+        e.params = obj
+            .specs
+            .iter()
+            .zip(&r.final_params)
+            .map(|(s, v)| (s.path.clone(), *v))
+            .chain(c.fixed.iter().cloned())
+            .collect();
+        if best.as_ref().is_none_or(|b| shrink > b.1) {
+            let image = obj.value(&r.final_params)?.image.data;
+            best = Some((k, shrink, image));
+        }
+    }
+    timings.refits_s = t.elapsed().as_secs_f64();
+
+    // Step 5: verdict.
+    let (verdict, after_image) = match best {
+        Some((k, shrink, image)) if shrink >= opts.min_shrink => (
+            Verdict {
+                effect: effects[k].effect.clone(),
+                shrink,
+            },
+            image,
+        ),
+        _ => {
+            let effect = if held.loss <= opts.noise_factor * noise_loss {
+                "none"
+            } else {
+                "unexplained"
+            };
+            (
+                Verdict {
+                    effect: effect.into(),
+                    shrink: 0.0,
+                },
+                cal_eval.image.data.clone(),
+            )
+        }
+    };
+    let ranked: Vec<EffectResult> = order.iter().map(|&k| effects[k].clone()).collect();
+    Ok(Diagnosis {
+        calibrated: Calibrated {
+            params: specs
+                .iter()
+                .zip(&cal.final_params)
+                .map(|(s, v)| (s.path.clone(), *v))
+                .collect(),
+            loss: cal_eval.loss,
+            loss_held_out: held.loss,
+        },
+        where_: residual.shares.clone(),
+        effects: ranked,
+        verdict,
+        noise_loss,
+        timings,
+        residual,
+        calibrated_image: cal_eval.image.data,
+        after_image,
+    })
+}
