@@ -9,18 +9,22 @@
 //!    Adam iterations with common random numbers (seed `s`).
 //! 2. **Where**: [`crate::residual::analyse_residual`] of the calibrated image.
 //! 3. **Which**: every candidate of [`catalogue`] is switched on at its *onset*
-//!    value (its null value where the model is smooth there; a small
-//!    strength where the null value is a change of structure, such as a wall
-//!    appearing inside a solid cylinder) and scored from **one value + gradient**
-//!    of the loss in its own parameter:
+//!    (its null value where the model is smooth there; where the null is a change
+//!    of structure — a wall appearing inside a solid cylinder — the best of a few
+//!    values across the range, by loss alone) and scored from **one value +
+//!    gradient** of the loss `g = ∂L/∂θ` there, with the Gauss–Newton curvature
+//!    of the ℓ2 term `c = (2λ₂/N) Σ_u J_u²` from one more render
+//!    (`J_u = ∂I_u/∂θ` by a forward difference of 1% of the range):
 //!
-//!    `score = [max(0, L_cal − L_on) + max(0, −g·Δ)] / L_cal` (two-sided
-//!    parameters: `|g|·Δ`),
+//!    `score = [max(0, L_cal − L_on) + g²/(2c)] / L_cal`
 //!
-//!    the first-order predicted relative loss reduction for a step `Δ` of 5% of
-//!    the parameter's range from its onset. The [`DiagnoseOptions::confirm_top`]
-//!    best are refitted (effect parameter + the base free parameters,
-//!    [`DiagnoseOptions::refit_iters`] iterations).
+//!    — the relative loss reduction predicted by a Newton step along the effect
+//!    (for the pure ℓ2 loss, `g²/(2c)/L` is the squared cosine between the
+//!    residual and the effect's image derivative: the share of the residual the
+//!    effect explains to first order). A one-sided parameter at its null whose
+//!    gradient points out of the range scores only its first term. The
+//!    [`DiagnoseOptions::confirm_top`] best are refitted (effect parameter + the
+//!    base free parameters, [`DiagnoseOptions::refit_iters`] iterations).
 //! 4. **How far it shrinks**: losses on **held-out** data: the simulation is
 //!    re-rendered with an independent seed `s + 1` (other paths) at the
 //!    calibrated and at the refitted parameters, so an effect that only fits the
@@ -57,8 +61,9 @@ pub struct Candidate {
     pub path: String,
     /// Value at which the extension gives back the base model.
     pub null: f64,
-    /// Value at which it is scored (the null where the model is smooth there).
-    pub onset: f64,
+    /// Values at which it may be scored: the null where the model is smooth
+    /// there; else a few values across the range (the best by loss is scored).
+    pub onsets: Vec<f64>,
     /// Admissible range of the parameter in a refit.
     pub range: (f64, f64),
     /// Whether the parameter may move either way from its null (sound speed,
@@ -121,7 +126,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                     effect: "wall_thickness".into(),
                     path: format!("objects.{}.thickness_m", o.name),
                     null: r,
-                    onset: lambda.min(0.5 * r),
+                    onsets: vec![0.1 * r, 0.25 * r, 0.45 * r],
                     range: (0.25 * lambda.min(0.5 * r), 0.95 * r),
                     two_sided: false,
                     fixed: vec![],
@@ -134,7 +139,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             effect: "attenuation".into(),
             path: "medium.attenuation_db_cm_mhz".into(),
             null: 0.0,
-            onset: 0.0,
+            onsets: vec![0.0],
             range: (0.0, 2.0),
             two_sided: false,
             fixed: vec![],
@@ -151,7 +156,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 effect: "volume_scattering".into(),
                 path: format!("materials.{m}.scatterer_strength"),
                 null: 0.0,
-                onset: 0.1,
+                onsets: vec![0.1],
                 range: (0.0, 2.0),
                 two_sided: false,
                 fixed: vec![(
@@ -172,7 +177,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             effect: "sound_speed".into(),
             path: "medium.sound_speed_m_s".into(),
             null: c_img,
-            onset: c_img,
+            onsets: vec![c_img],
             range: (0.93 * c_img, 1.07 * c_img),
             two_sided: true,
             fixed: vec![("imaging.sound_speed_m_s".into(), c_img)],
@@ -183,7 +188,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             effect: "depth_gain".into(),
             path: "acquisition.depth_gain_db_per_cm".into(),
             null: 0.0,
-            onset: 0.0,
+            onsets: vec![0.0],
             range: (-3.0, 3.0),
             two_sided: true,
             fixed: vec![],
@@ -227,7 +232,7 @@ pub struct DiagnoseOptions {
     pub calibration_iters: usize,
     /// Adam iterations of each confirming refit (default 40).
     pub refit_iters: usize,
-    /// How many of the best-scored candidates are refitted (default 2).
+    /// How many of the best-scored candidates are refitted (default 3).
     pub confirm_top: usize,
     /// Smallest held-out shrink that names an effect (default 0.2).
     pub min_shrink: f64,
@@ -246,7 +251,7 @@ impl Default for DiagnoseOptions {
             free_params: Vec::new(),
             calibration_iters: 40,
             refit_iters: 40,
-            confirm_top: 2,
+            confirm_top: 3,
             min_shrink: 0.2,
             noise_factor: 1.5,
             fit: FitOptions::default(),
@@ -419,20 +424,63 @@ pub fn diagnose(
     let t = Instant::now();
     let candidates = catalogue(&cal_scene);
     let mut effects = Vec::new();
+    let mut onsets = Vec::new();
     for c in &candidates {
         progress(&format!("scoring {}", c.effect));
-        let on = c.switched_on(&cal_scene, c.onset)?;
         let spec = ParamSpec {
             path: c.path.clone(),
             min: c.range.0,
             max: c.range.1,
         };
-        let obj = Objective::new(on, measured.to_vec(), vec![spec], render_s.clone())?;
-        let e = obj.value_and_gradient(&[c.onset])?;
+        let objective_at = |v: f64| -> Result<Objective, OptimError> {
+            Objective::new(
+                c.switched_on(&cal_scene, v)?,
+                measured.to_vec(),
+                vec![spec.clone()],
+                render_s.clone(),
+            )
+        };
+        // The onset: the only one, or the best of a few by loss alone.
+        let mut onset = c.onsets[0];
+        if c.onsets.len() > 1 {
+            let mut best = f64::INFINITY;
+            for &v in &c.onsets {
+                let l = objective_at(v)?.value(&[v])?.loss;
+                if l < best {
+                    (best, onset) = (l, v);
+                }
+            }
+        }
+        let obj = objective_at(onset)?;
+        let e = obj.value_and_gradient(&[onset])?;
         let g = e.gradient[0];
-        let step = 0.05 * (c.range.1 - c.range.0);
-        let first_order = if c.two_sided { g.abs() } else { (-g).max(0.0) } * step;
-        let score = ((cal_eval.loss - e.loss).max(0.0) + first_order) / cal_eval.loss;
+        // Gauss–Newton curvature of the ℓ2 term from a forward difference of the
+        // image (into the range).
+        let h = 0.01
+            * (c.range.1 - c.range.0)
+            * if onset + 0.01 * (c.range.1 - c.range.0) > c.range.1 {
+                -1.0
+            } else {
+                1.0
+            };
+        let moved = obj.value(&[onset + h])?;
+        let jj: f64 = moved
+            .image
+            .data
+            .iter()
+            .zip(&e.image.data)
+            .map(|(a, b)| ((a - b) / h).powi(2))
+            .sum();
+        let curvature = 2.0 * obj.loss.lambda2 * jj / e.image.data.len() as f64;
+        // A one-sided parameter at the bottom of its range cannot follow g > 0.
+        let blocked = !c.two_sided && onset <= c.range.0 && g > 0.0;
+        let newton = if curvature > 0.0 && !blocked {
+            g * g / (2.0 * curvature)
+        } else {
+            0.0
+        };
+        let score = ((cal_eval.loss - e.loss).max(0.0) + newton) / cal_eval.loss;
+        onsets.push(onset);
         effects.push(EffectResult {
             effect: c.effect.clone(),
             path: c.path.clone(),
@@ -454,7 +502,7 @@ pub fn diagnose(
     for &k in order.iter().take(opts.confirm_top) {
         let c = &candidates[k];
         progress(&format!("refitting with {}", c.effect));
-        let on = c.switched_on(&cal_scene, c.onset)?;
+        let on = c.switched_on(&cal_scene, onsets[k])?;
         let mut refit_specs = vec![ParamSpec {
             path: c.path.clone(),
             min: c.range.0,

@@ -31,6 +31,7 @@
 //! ```
 
 mod adam;
+pub mod blind;
 mod diagnose;
 mod fd;
 mod fit;

@@ -1,0 +1,118 @@
+//! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
+//!
+//! ```text
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json]
+//! ```
+//!
+//! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
+//! the five catalogue effects, none, and one outside the catalogue; random
+//! strength, seed and measurement noise: `usray_optim::blind`), diagnoses each
+//! against the base scene with `RAYS` rays per element and `ITERS` iterations of
+//! calibration and refits, and prints one line per draw and the summary.
+
+use usray_optim::blind::{
+    draw, measured_image, verdict_is_false_effect, verdict_is_right, BlindOptions,
+};
+use usray_optim::{diagnose, DiagnoseOptions};
+use usray_transport::{RenderOptions, Scene};
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.len() < 4 {
+        eprintln!("usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json]");
+        std::process::exit(2);
+    }
+    let parse = |i: usize| -> usize {
+        args[i].parse().unwrap_or_else(|_| {
+            eprintln!(
+                "argument {} must be a whole number, found `{}`",
+                i + 1,
+                args[i]
+            );
+            std::process::exit(2)
+        })
+    };
+    let base = Scene::load(&args[0]).unwrap_or_else(|e| {
+        eprintln!("{e}");
+        std::process::exit(2)
+    });
+    let (draws, rays, iters) = (parse(1), parse(2), parse(3));
+    let render = RenderOptions {
+        rays_per_element: Some(rays),
+        ..Default::default()
+    };
+    let bopts = BlindOptions {
+        render: render.clone(),
+        ..Default::default()
+    };
+    let dopts = DiagnoseOptions {
+        calibration_iters: iters,
+        refit_iters: iters,
+        render,
+        ..Default::default()
+    };
+    let t0 = std::time::Instant::now();
+    let mut rows = Vec::new();
+    let (mut right_effects, mut n_effects, mut false_effects) = (0, 0, 0);
+    for i in 0..draws {
+        let result = draw(&base, i, &bopts)
+            .and_then(|d| measured_image(&d, &bopts).map(|m| (d, m)))
+            .and_then(|(d, m)| diagnose(&base, &m, &dopts, |_| {}).map(|r| (d, r)));
+        let (d, r) = match result {
+            Ok(x) => x,
+            Err(e) => {
+                eprintln!("draw {i}: {e}");
+                std::process::exit(1)
+            }
+        };
+        let right = verdict_is_right(d.kind, &r.verdict.effect);
+        let false_effect = verdict_is_false_effect(d.kind, &r.verdict.effect);
+        if !["none", "outside"].contains(&d.kind) {
+            n_effects += 1;
+            right_effects += usize::from(right);
+        }
+        false_effects += usize::from(false_effect);
+        let ranked: Vec<String> = r
+            .effects
+            .iter()
+            .map(|e| {
+                format!(
+                    "{}:{:.2e}/{}",
+                    e.effect,
+                    e.score,
+                    e.shrink.map_or("-".into(), |s| format!("{s:.2}"))
+                )
+            })
+            .collect();
+        println!(
+            "draw {i:2}: {:<17} strength {:+.4e}  verdict {:<17} shrink {:.2}  cal {:.3e} held {:.3e} noise {:.3e}  {}  [{}]  {:.0} s",
+            d.kind,
+            d.strength,
+            r.verdict.effect,
+            r.verdict.shrink,
+            r.calibrated.loss,
+            r.calibrated.loss_held_out,
+            r.noise_loss,
+            if right { "right" } else if false_effect { "FALSE EFFECT" } else { "wrong" },
+            ranked.join(" "),
+            r.timings.calibration_s + r.timings.scoring_s + r.timings.refits_s + r.timings.held_out_s
+        );
+        rows.push(serde_json::json!({
+            "draw": i, "kind": d.kind, "strength": d.strength, "seed": d.seed,
+            "verdict": r.verdict.effect, "shrink": r.verdict.shrink, "right": right,
+            "false_effect": false_effect, "diagnosis": r,
+        }));
+    }
+    let summary = format!(
+        "top-1 accuracy on effect draws {right_effects}/{n_effects}; false effects {false_effects}/{draws}; {:.0} s",
+        t0.elapsed().as_secs_f64()
+    );
+    println!("{summary}");
+    if let Some(out) = args.get(4) {
+        let v = serde_json::json!({ "summary": summary, "draws": rows });
+        if let Err(e) = std::fs::write(out, serde_json::to_string_pretty(&v).unwrap_or_default()) {
+            eprintln!("writing {out}: {e}");
+            std::process::exit(1)
+        }
+    }
+}

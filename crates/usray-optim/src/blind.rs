@@ -1,0 +1,196 @@
+//! The blind benchmark of the diagnosis (issue 6): measured-like data rendered from
+//! a base scene with one effect switched on — drawn from the catalogue's five, or
+//! none, or one *outside* the catalogue — at a random strength and seed, plus
+//! measurement noise. The diagnosis sees only the base scene and the image.
+//!
+//! Draw `i` takes kind `i mod 7` (so 20 draws span every kind) and a strength and
+//! seed hashed from `(seed, i)`:
+//!
+//! | kind | switched on | strength drawn uniformly in |
+//! |---|---|---|
+//! | `wall_thickness` | first cylinder's `thickness_m` | [0.25, 0.4] × radius |
+//! | `attenuation` | `medium.attenuation_db_cm_mhz` | [0.5, 1.5] dB/(cm·MHz) |
+//! | `volume_scattering` | first object material's scatterers, density [`crate::SCATTERER_DENSITY_PER_MM3`] | strength [0.5, 1.5] |
+//! | `sound_speed` | medium speed, beamformer kept | ±[3, 6] % |
+//! | `depth_gain` | `acquisition.depth_gain_db_per_cm` | ±[1, 2] dB/cm |
+//! | `none` | nothing | — |
+//! | `outside` (pulse length, not in the catalogue) | `probe.cycles` | [2, 2.5] × base |
+//!
+//! Measurement noise: white Gaussian noise added to the channel data at
+//! [`BlindOptions::noise_db`] below the largest absolute sample, before
+//! beamforming.
+
+use crate::OptimError;
+use usray_signal::BMode;
+use usray_transport::scene::ShapeKind;
+use usray_transport::{render, RenderOptions, Scene};
+
+/// The kinds a draw can take, in draw order.
+pub const KINDS: [&str; 7] = [
+    "wall_thickness",
+    "attenuation",
+    "volume_scattering",
+    "sound_speed",
+    "depth_gain",
+    "none",
+    "outside",
+];
+
+/// Settings of the generator.
+#[derive(Clone, Debug)]
+pub struct BlindOptions {
+    /// Master seed of the draws.
+    pub seed: u64,
+    /// Measurement noise level, dB below the largest absolute channel sample
+    /// (default 40).
+    pub noise_db: f64,
+    /// Render options of the measured data (rays, threads); its seed is drawn.
+    pub render: RenderOptions,
+}
+
+impl Default for BlindOptions {
+    fn default() -> Self {
+        Self {
+            seed: 2026,
+            noise_db: 40.0,
+            render: RenderOptions::default(),
+        }
+    }
+}
+
+/// One hidden draw.
+#[derive(Clone, Debug)]
+pub struct Draw {
+    /// Which kind ([`KINDS`]).
+    pub kind: &'static str,
+    /// Its strength in the switched parameter's unit (0 for `none`).
+    pub strength: f64,
+    /// The scene the data were rendered from (with the effect).
+    pub scene: Scene,
+    /// Seed of the measured data's rays and noise.
+    pub seed: u64,
+}
+
+/// SplitMix64 step (Steele, Lea & Flood 2014): the draws' random numbers.
+fn splitmix(state: &mut u64) -> f64 {
+    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// Draw `i` from `base` (see the module docs).
+///
+/// # Errors
+/// A base scene without a cylinder or object material the kind needs.
+pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimError> {
+    let mut st = opts.seed ^ (i as u64).wrapping_mul(0xd6e8_feb8_6659_fd93);
+    let u = splitmix(&mut st);
+    let sign = if splitmix(&mut st) < 0.5 { -1.0 } else { 1.0 };
+    let seed = (splitmix(&mut st) * 1e9) as u64 + 1000;
+    let kind = KINDS[i % KINDS.len()];
+    let mut scene = base.clone();
+    let missing = |what: &str| OptimError::Diagnosis(format!("blind draw {kind}: {what}"));
+    let strength = match kind {
+        "wall_thickness" => {
+            let o = scene
+                .objects
+                .iter_mut()
+                .find(|o| o.shape == ShapeKind::Cylinder)
+                .ok_or_else(|| missing("the base scene has no cylinder"))?;
+            let r = o
+                .radius_m
+                .ok_or_else(|| missing("cylinder without radius"))?;
+            let t = (0.25 + 0.15 * u) * r;
+            o.thickness_m = Some(t);
+            t
+        }
+        "attenuation" => {
+            let a = 0.5 + u;
+            scene.medium.attenuation_db_cm_mhz = a;
+            a
+        }
+        "volume_scattering" => {
+            let m = scene
+                .objects
+                .first()
+                .map(|o| o.material.clone())
+                .ok_or_else(|| missing("the base scene has no object"))?;
+            let s = 0.5 + u;
+            scene.set(
+                &format!("materials.{m}.scatterer_density_per_mm3"),
+                crate::SCATTERER_DENSITY_PER_MM3,
+            )?;
+            scene.set(&format!("materials.{m}.scatterer_strength"), s)?;
+            s
+        }
+        "sound_speed" => {
+            let c = scene.medium.sound_speed_m_s;
+            scene.imaging.sound_speed_m_s = Some(scene.imaging.sound_speed_m_s.unwrap_or(c));
+            let f = sign * (0.03 + 0.03 * u);
+            scene.medium.sound_speed_m_s = c * (1.0 + f);
+            f
+        }
+        "depth_gain" => {
+            let g = sign * (1.0 + u);
+            scene.acquisition.depth_gain_db_per_cm = g;
+            g
+        }
+        "outside" => {
+            let f = 2.0 + 0.5 * u;
+            scene.probe.cycles *= f;
+            f
+        }
+        _ => 0.0,
+    };
+    scene.validate()?;
+    Ok(Draw {
+        kind,
+        strength,
+        scene,
+        seed,
+    })
+}
+
+/// The measured-like B-mode of a draw: render with the draw's seed, add white
+/// Gaussian noise (Box–Muller) at `noise_db` below the largest absolute sample,
+/// beamform with the scene's imaging settings.
+///
+/// # Errors
+/// A failing render or image formation.
+pub fn measured_image(d: &Draw, opts: &BlindOptions) -> Result<Vec<f64>, OptimError> {
+    let (mut ch, _) = render(
+        &d.scene,
+        &RenderOptions {
+            seed: Some(d.seed),
+            ..opts.render.clone()
+        },
+    )?;
+    let peak = ch.samples.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let sigma = peak * 10f64.powf(-opts.noise_db / 20.0);
+    let mut st = d.seed ^ 0x6e6f_6973_65;
+    for v in &mut ch.samples {
+        let (u1, u2) = (splitmix(&mut st).max(1e-300), splitmix(&mut st));
+        *v += sigma * (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos();
+    }
+    let op = BMode::new(&d.scene.imaging_settings(), &ch.meta, ch.n_samples)?;
+    let mut ws = op.workspace();
+    Ok(op.forward(&ch, &mut ws)?.data)
+}
+
+/// Whether a verdict is right for a draw: the effect's name for the five; for
+/// `none`, `"none"` (`"unexplained"` counts as not naming a false effect, but
+/// not as right); for `outside`, `"unexplained"`.
+pub fn verdict_is_right(kind: &str, verdict: &str) -> bool {
+    match kind {
+        "outside" => verdict == "unexplained",
+        k => verdict == k,
+    }
+}
+
+/// Whether a verdict names an effect the data do not have (a false effect).
+pub fn verdict_is_false_effect(kind: &str, verdict: &str) -> bool {
+    verdict != kind && verdict != "none" && verdict != "unexplained"
+}
