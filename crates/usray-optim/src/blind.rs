@@ -9,7 +9,7 @@
 //! | kind | switched on | strength drawn uniformly in |
 //! |---|---|---|
 //! | `wall_thickness` | first cylinder's `thickness_m` | [0.25, 0.4] × radius |
-//! | `attenuation` | `medium.attenuation_db_cm_mhz` | [0.5, 1.5] dB/(cm·MHz) |
+//! | `attenuation` | the medium's and every material's `attenuation_db_cm_mhz` | [0.5, 1.5] dB/(cm·MHz) |
 //! | `volume_scattering` | first object material's scatterers, density [`crate::SCATTERER_DENSITY_PER_MM3`] | strength [0.5, 1.5] |
 //! | `sound_speed` | medium speed, beamformer kept | ±[3, 6] % |
 //! | `depth_gain` | `acquisition.depth_gain_db_per_cm` | ±[1, 2] dB/cm |
@@ -108,8 +108,12 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
             t
         }
         "attenuation" => {
+            // Tissue-like: the background and every object's material.
             let a = 0.5 + u;
             scene.medium.attenuation_db_cm_mhz = a;
+            for m in scene.materials.values_mut() {
+                m.attenuation_db_cm_mhz = a;
+            }
             a
         }
         "volume_scattering" => {

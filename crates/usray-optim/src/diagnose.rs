@@ -51,6 +51,10 @@ use usray_transport::{RenderOptions, Scene};
 /// strength is what is scored and fitted.
 pub const SCATTERER_DENSITY_PER_MM3: f64 = 5.0;
 
+/// Learning rate of an effect's strength in a confirming refit, in fractions of
+/// its range per step (the calibrated parameters keep their groups' rates).
+pub const EFFECT_LEARNING_RATE: f64 = 0.05;
+
 /// One candidate unmodelled effect: how to switch it on and which parameter
 /// carries its strength.
 #[derive(Clone, Debug, PartialEq)]
@@ -148,6 +152,27 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
     let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
     materials.sort_unstable();
     materials.dedup();
+    // Attenuation inside each object's material: after the B-mode's normalisation
+    // to its maximum, attenuation of the background alone changes little when
+    // every echo crosses the same background path (a cylinder's near and far
+    // walls); attenuation inside an object darkens what lies behind it.
+    for m in &materials {
+        if scene
+            .materials
+            .get(*m)
+            .is_some_and(|mat| mat.attenuation_db_cm_mhz == 0.0)
+        {
+            out.push(Candidate {
+                effect: "attenuation".into(),
+                path: format!("materials.{m}.attenuation_db_cm_mhz"),
+                null: 0.0,
+                onsets: vec![0.0],
+                range: (0.0, 2.0),
+                two_sided: false,
+                fixed: vec![],
+            });
+        }
+    }
     for m in materials {
         if scene.materials.get(m).is_some_and(|mat| {
             mat.scatterer_density_per_mm3 == 0.0 || mat.scatterer_strength == 0.0
@@ -516,6 +541,9 @@ pub fn diagnose(
             &x0,
             &FitOptions {
                 iters: opts.refit_iters,
+                // The effect's strength may lie anywhere in its range and refits
+                // are short: 5% of its range per step.
+                lr_overrides: vec![(c.path.clone(), EFFECT_LEARNING_RATE)],
                 ..opts.fit.clone()
             },
             |_| {},

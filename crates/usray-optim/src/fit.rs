@@ -86,6 +86,11 @@ pub struct FitOptions {
     /// Draw fresh random numbers every iteration (seed + k) instead of common random
     /// numbers; the gradient is then stochastic (paper: "unless explicitly stated").
     pub resample_seed: bool,
+    /// Learning rates of single parameters, by path, overriding their group's
+    /// (each such parameter gets a group of its own; default none). The
+    /// diagnosis gives an effect's strength, which may lie anywhere in its range,
+    /// a faster rate than the calibrated parameters it refits with.
+    pub lr_overrides: Vec<(String, f64)>,
 }
 
 impl Default for FitOptions {
@@ -98,6 +103,7 @@ impl Default for FitOptions {
             lr_final_fraction: 0.1,
             clip_factor: Some(5.0),
             resample_seed: false,
+            lr_overrides: Vec::new(),
         }
     }
 }
@@ -144,18 +150,26 @@ pub fn fit(
     let t0 = Instant::now();
     let map = ParamMap::new(objective.specs.clone());
     let mut state = map.state_from_physical(start);
-    let base_lr = [opts.lr_material, opts.lr_geometry, opts.lr_acquisition];
+    let mut base_lr = vec![opts.lr_material, opts.lr_geometry, opts.lr_acquisition];
+    let group_of = objective
+        .specs
+        .iter()
+        .map(
+            |s| match opts.lr_overrides.iter().find(|(p, _)| *p == s.path) {
+                Some((_, lr)) => {
+                    base_lr.push(*lr);
+                    base_lr.len() - 1
+                }
+                None => ParamGroup::of(&s.path).index(),
+            },
+        )
+        .collect();
     let groups = base_lr
         .iter()
         .map(|&lr| AdamGroup {
             learning_rate: lr,
             ..Default::default()
         })
-        .collect();
-    let group_of = objective
-        .specs
-        .iter()
-        .map(|s| ParamGroup::of(&s.path).index())
         .collect();
     let mut adam = Adam::new(groups, group_of);
     let base_seed = objective
@@ -176,7 +190,7 @@ pub fn fit(
         } else {
             1.0
         };
-        for (grp, lr) in adam.groups.iter_mut().zip(base_lr) {
+        for (grp, lr) in adam.groups.iter_mut().zip(&base_lr) {
             grp.learning_rate = lr * decay;
         }
         let norm = g.iter().map(|x| x * x).sum::<f64>().sqrt();

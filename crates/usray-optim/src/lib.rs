@@ -44,7 +44,7 @@ pub mod residual;
 pub use adam::{Adam, AdamGroup};
 pub use diagnose::{
     catalogue, default_free_params, diagnose, Calibrated, Candidate, DiagnoseOptions, Diagnosis,
-    EffectResult, Timings, Verdict, SCATTERER_DENSITY_PER_MM3,
+    EffectResult, Timings, Verdict, EFFECT_LEARNING_RATE, SCATTERER_DENSITY_PER_MM3,
 };
 pub use fd::{fd_sweep, log_steps, FdPoint};
 pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};

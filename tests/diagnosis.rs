@@ -1,0 +1,94 @@
+//! The sim-to-real diagnosis (issue 6) at CI size: the paper's case — a thick ring
+//! diagnosed against a zero-thickness (solid) cylinder — must name
+//! `wall_thickness` and find the wall; and a draw with no effect must not name one.
+
+use usray::optim::blind::{draw, measured_image, verdict_is_false_effect, BlindOptions, KINDS};
+use usray::optim::{diagnose, DiagnoseOptions};
+use usray::transport::{RenderOptions, Scene};
+
+const CYLINDER: &str = include_str!("../scenes/cylinder.toml");
+
+/// `scenes/cylinder.toml` reduced for CI: 32 elements, 3 angles, a 0.25 mm grid.
+fn base() -> Scene {
+    let mut s = Scene::from_toml_str(CYLINDER, "cylinder.toml", ".").unwrap();
+    s.probe.n_elements = 32;
+    s.acquisition.angles_deg = vec![-5.0, 0.0, 5.0];
+    s.acquisition.max_depth_m = 0.025;
+    s.imaging.x_range_m = [-0.008, 0.008];
+    s.imaging.z_range_m = [0.007, 0.023];
+    s.imaging.pixel_m = 0.25e-3;
+    s.validate().unwrap();
+    s
+}
+
+fn options(rays: usize, iters: usize) -> (BlindOptions, DiagnoseOptions) {
+    let render = RenderOptions {
+        rays_per_element: Some(rays),
+        ..Default::default()
+    };
+    (
+        BlindOptions {
+            render: render.clone(),
+            ..Default::default()
+        },
+        DiagnoseOptions {
+            calibration_iters: iters,
+            refit_iters: iters,
+            // Two refits instead of three: CI time.
+            confirm_top: 2,
+            render,
+            ..Default::default()
+        },
+    )
+}
+
+/// The paper's case: data from a ring whose wall is a draw of 0.25–0.4 × the
+/// radius, diagnosed against the plain cylinder. Measured (dev profile): verdict
+/// `wall_thickness`, held-out shrink 0.47, wall 2.00 mm found for 1.89 mm.
+#[test]
+fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
+    let base = base();
+    let (b, d) = options(12, 20);
+    let wall = draw(&base, 0, &b).unwrap();
+    assert_eq!(wall.kind, KINDS[0]);
+    let measured = measured_image(&wall, &b).unwrap();
+    let r = diagnose(&base, &measured, &d, |_| {}).unwrap();
+    let found = r
+        .effects
+        .iter()
+        .find(|e| e.effect == "wall_thickness")
+        .and_then(|e| e.params.get("objects.cylinder.thickness_m").copied());
+    eprintln!(
+        "thick ring {:.3e} m: verdict {} (shrink {:.2}), found {found:?}, calibrated radius {:?}, timings {:?}",
+        wall.strength, r.verdict.effect, r.verdict.shrink,
+        r.calibrated.params.get("objects.cylinder.radius_m"), r.timings
+    );
+    assert_eq!(r.verdict.effect, "wall_thickness");
+    let t = found.expect("the wall_thickness refit reports the thickness");
+    assert!(
+        (t / wall.strength - 1.0).abs() < 0.5,
+        "thickness {t} vs true {}",
+        wall.strength
+    );
+    // Scoring all candidates costs less than one refit.
+    assert!(r.timings.scoring_s < r.timings.refits_s / d.confirm_top as f64);
+}
+
+/// A draw with no effect (measurement noise only) must not name an effect.
+/// Measured: verdict `unexplained` (held-out loss 6.1e-2 against a Monte Carlo
+/// noise level of 1.7e-2): the measurement noise is itself a gap no candidate
+/// models (a noise-floor candidate is future work), so `none` is not reached.
+#[test]
+fn no_effect_names_no_false_effect() {
+    let base = base();
+    let (b, d) = options(12, 20);
+    let none = draw(&base, 5, &b).unwrap();
+    assert_eq!(none.kind, "none");
+    let measured = measured_image(&none, &b).unwrap();
+    let r = diagnose(&base, &measured, &d, |_| {}).unwrap();
+    eprintln!(
+        "no effect: verdict {} (shrink {:.2}); held-out {:.3e}, noise {:.3e}",
+        r.verdict.effect, r.verdict.shrink, r.calibrated.loss_held_out, r.noise_loss
+    );
+    assert!(!verdict_is_false_effect("none", &r.verdict.effect));
+}
