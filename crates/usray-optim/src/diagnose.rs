@@ -527,7 +527,12 @@ pub fn diagnose(
     for &k in order.iter().take(opts.confirm_top) {
         let c = &candidates[k];
         progress(&format!("refitting with {}", c.effect));
-        let on = c.switched_on(&cal_scene, onsets[k])?;
+        // Start strictly inside the range: at a bound the clip map's derivative is
+        // zero (paper eq. clip_grad), so a strength starting at its null (the
+        // bottom of its range) would never move.
+        let margin = 0.01 * (c.range.1 - c.range.0);
+        let start = onsets[k].clamp(c.range.0 + margin, c.range.1 - margin);
+        let on = c.switched_on(&cal_scene, start)?;
         let mut refit_specs = vec![ParamSpec {
             path: c.path.clone(),
             min: c.range.0,
