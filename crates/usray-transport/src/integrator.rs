@@ -75,7 +75,7 @@ use crate::probe::{
 use crate::rng::{dim, PathSampler};
 use crate::scene::{Emission, MaterialT, SceneT};
 use usray_ad::Real;
-use usray_geometry::{MediumStack, Ray, Vec3};
+use usray_geometry::{Hit, MediumStack, Ray, Vec3};
 
 /// Closest distance (m) a ray may hit after leaving a surface: 0.1 µm, far below
 /// a wavelength (0.3 mm at 5 MHz) and above the f64 rounding of hit points.
@@ -182,15 +182,25 @@ pub struct TraceCounters {
 }
 
 /// State shared by the steps of one path.
-struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>)> {
+struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     st: &'a SceneT<T>,
     settings: &'a TraceSettings,
     norm: T,
     counters: TraceCounters,
     out: F,
+    cast: C,
 }
 
-impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
+impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
+    /// Cast `ray` through the scene (`t ∈ [T_MIN, t_max]`): counted, reported to
+    /// the `cast` hook, then [`usray_geometry::Geometry::intersect`].
+    #[inline(always)]
+    fn intersect(&mut self, ray: &Ray<T>, t_max: f64) -> Option<Hit<T>> {
+        self.counters.rays += 1;
+        (self.cast)(ray, T_MIN, t_max);
+        self.st.geometry.intersect(ray, T_MIN, t_max)
+    }
+
     /// Deposit on element `e`, applying the depth gain and the `1/rays` norm.
     fn deposit(&mut self, e: usize, a: T, tau: T) {
         let st = self.st;
@@ -250,11 +260,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         let mut remaining = r;
         for crossing in 0..MAX_CONNECTION_CROSSINGS {
             let medium = *st.medium_of(stack.top());
-            let ray = Ray::new(origin, wo);
-            self.counters.rays += 1;
-            let hit = st
-                .geometry
-                .intersect(&ray, T_MIN, remaining.value() - T_MIN);
+            let hit = self.intersect(&Ray::new(origin, wo), remaining.value() - T_MIN);
             let Some(hit) = hit else {
                 time += remaining / medium.sound_speed;
                 amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, remaining);
@@ -403,12 +409,34 @@ pub fn trace_path_from<T: Real>(
     start_stack: MediumStack,
     out: impl FnMut(Deposit<T>),
 ) -> TraceCounters {
+    trace_path_casts(st, settings, tx, el, ray, start_stack, out, |_, _, _| {})
+}
+
+/// [`trace_path_from`] that also calls `cast(ray, t_min, t_max)` for every ray
+/// the path casts, just before it is intersected with the scene
+/// ([`usray_geometry::Geometry::intersect`] over `t ∈ [t_min, t_max]` metres):
+/// path segments of every branch and receiver-connection segments, in order,
+/// one call per [`TraceCounters::rays`]. The rays are the tracer's exact
+/// hit-finding workload (the `render` bench replays them through bare BVH
+/// traversal).
+#[allow(clippy::too_many_arguments)]
+pub fn trace_path_casts<T: Real>(
+    st: &SceneT<T>,
+    settings: &TraceSettings,
+    tx: usize,
+    el: usize,
+    ray: u32,
+    start_stack: MediumStack,
+    out: impl FnMut(Deposit<T>),
+    cast: impl FnMut(&Ray<T>, f64, f64),
+) -> TraceCounters {
     let mut ctx = PathCtx {
         st,
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
         counters: TraceCounters::default(),
         out,
+        cast,
     };
     let sampler = PathSampler::new(settings.seed, tx as u32, el as u32, ray);
     let n_el = st.n_elements;
@@ -466,7 +494,7 @@ pub fn trace_path_from<T: Real>(
     ctx.counters
 }
 
-impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
+impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
     /// Trace branch `b` to its next interaction (steps 2–5 of the module docs)
     /// and push its continuations onto `pending`.
     fn trace_branch(&mut self, b: Branch<T>, pending: &mut Vec<Branch<T>>) {
@@ -488,8 +516,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         let medium = *st.medium_of(stack.top());
         // Step 2: the next interface.
         let r = Ray::new(origin, dir);
-        self.counters.rays += 1;
-        let hit = st.geometry.intersect(&r, T_MIN, f64::INFINITY);
+        let hit = self.intersect(&r, f64::INFINITY);
         // The array plane z = 0, reached first by a ray travelling up.
         let t_array = if dir.z.value() < 0.0 {
             -origin.z / dir.z
