@@ -52,8 +52,10 @@ fn main() {
     let cores = std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1);
-    // `USRAY_BENCH_ONLY=b` skips part (a) (for profiling part (b) alone).
-    let only_b = std::env::var("USRAY_BENCH_ONLY").is_ok_and(|v| v == "b");
+    // `USRAY_BENCH_ONLY=b` skips part (a) (for profiling part (b) alone),
+    // `USRAY_BENCH_ONLY=a` skips part (b).
+    let only = std::env::var("USRAY_BENCH_ONLY").unwrap_or_default();
+    let only_b = only == "b";
     let cyl = scene("cylinder.toml");
     if !only_b {
         println!("## (a) cylinder.toml at default settings (median of {REPEATS})");
@@ -69,6 +71,9 @@ fn main() {
         }
     }
 
+    if only == "a" {
+        return;
+    }
     println!(
         "## (b) valve.toml: whole tracer vs bare obvhs traversal, 1 thread (median of {REPEATS})"
     );
