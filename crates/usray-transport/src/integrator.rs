@@ -69,8 +69,7 @@ use crate::effects::{attenuation, depth_gain, ScattererField};
 use crate::fresnel::fresnel;
 use crate::ggx::{Interface, SMOOTH_ALPHA};
 use crate::probe::{
-    cosine_hemisphere, element_at, element_x, receive_directivity, transmit_delay,
-    transmit_directivity,
+    cosine_hemisphere, element_at, element_x, transmit_delay, transmit_directivity, ReceiveLobe,
 };
 use crate::rng::{dim, PathSampler};
 use crate::scene::{Emission, MaterialT, SceneT};
@@ -127,6 +126,9 @@ impl TraceSettings {
             k => k.min(n_el),
         };
         (0..k).map(move |j| {
+            if k == n_el {
+                return (j, 1.0); // every element (the default): no divisions
+            }
             let lo = j * n_el / k;
             let hi = (j + 1) * n_el / k;
             let size = hi - lo;
@@ -181,11 +183,24 @@ pub struct TraceCounters {
     pub deposits: u64,
 }
 
+/// The straight line of a receiver connection (see `PathCtx::link`).
+#[derive(Clone, Copy)]
+struct Link<T> {
+    /// Receiving element.
+    e: usize,
+    /// Unit direction towards the element's centre.
+    wo: Vec3<T>,
+    /// Distance to it, metres.
+    r: T,
+}
+
 /// State shared by the steps of one path.
 struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     st: &'a SceneT<T>,
     settings: &'a TraceSettings,
     norm: T,
+    /// The elements' receive directivity.
+    lobe: ReceiveLobe<T>,
     counters: TraceCounters,
     out: F,
     cast: C,
@@ -217,13 +232,31 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         });
     }
 
-    /// Receiver connection from `p` (medium stack `stack` on the side the
-    /// connection leaves into) with scattering factor `f_cos` (1/sr) and path
-    /// amplitude `w` at time `tau`, towards element `e` with estimator weight
-    /// `sel_w` (see [`TraceSettings::receivers`]). `p_bsdf` is the density
-    /// (1/sr) with which the vertex's own continuation sampling would produce the
-    /// connection direction (0 for volume scatterers): an unobstructed connection
-    /// is then MIS-weighted against a direct array hit of that continuation.
+    /// The straight line from `p` to element `e`'s centre, or `None` when no
+    /// connection can be made (closer than [`T_MIN`], or beyond the element's
+    /// receive cutoff, where its directivity is 0).
+    fn link(&self, p: Vec3<T>, e: usize) -> Option<Link<T>> {
+        let st = self.st;
+        let target = Vec3::new(element_x(st.pitch, st.n_elements, e), T::zero(), T::zero());
+        let v = target - p;
+        let r = v.length();
+        if r.value() <= T_MIN {
+            return None;
+        }
+        let wo = v * r.recip();
+        if !self.lobe.may_receive(-wo.z.value()) {
+            return None;
+        }
+        Some(Link { e, wo, r })
+    }
+
+    /// Receiver connection from `p` along `link` (medium stack `stack` on the
+    /// side the connection leaves into) with scattering factor `f_cos` (1/sr)
+    /// and path amplitude `w` at time `tau`, estimator weight `sel_w` (see
+    /// [`TraceSettings::receivers`]). `p_bsdf` is the density (1/sr) with which
+    /// the vertex's own continuation sampling would produce the connection
+    /// direction (0 for volume scatterers): an unobstructed connection is then
+    /// MIS-weighted against a direct array hit of that continuation.
     #[allow(clippy::too_many_arguments)]
     fn connect(
         &mut self,
@@ -232,7 +265,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         w: T,
         f_cos: T,
         tau: T,
-        e: usize,
+        link: &Link<T>,
         sel_w: f64,
         p_bsdf: T,
     ) {
@@ -240,16 +273,9 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         if f_cos.value() == 0.0 {
             return;
         }
-        let n_el = st.n_elements;
-        let target = Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
-        let v = target - p;
-        let r = v.length();
-        if r.value() <= T_MIN {
-            return;
-        }
-        let wo = v * r.recip();
+        let Link { e, wo, r } = *link;
         let cos_e = -wo.z;
-        let fd = receive_directivity(cos_e, st.main_lobe, st.cutoff);
+        let fd = self.lobe.eval(cos_e);
         if fd.value() == 0.0 {
             return;
         }
@@ -347,7 +373,9 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
             for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {
-                self.connect(q, stack, a_q, f, t_q, e, sel_w, T::zero());
+                if let Some(link) = self.link(q, e) {
+                    self.connect(q, stack, a_q, f, t_q, &link, sel_w, T::zero());
+                }
             }
         }
     }
@@ -434,6 +462,7 @@ pub fn trace_path_casts<T: Real>(
         st,
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
+        lobe: ReceiveLobe::new(st.main_lobe, st.cutoff),
         counters: TraceCounters::default(),
         out,
         cast,
@@ -562,7 +591,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                         }
                         _ => T::one(),
                     };
-                    let fd = receive_directivity(-dir.z, st.main_lobe, st.cutoff);
+                    let fd = self.lobe.eval(-dir.z);
                     let tau = time + t_array / medium.sound_speed;
                     let a = w
                         * fd
@@ -601,25 +630,27 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         // Step 5a: receiver connection from a rough interface.
         if iface.alpha.value() >= SMOOTH_ALPHA {
             let ue = sampler.uniform(bounce, dim::ELEMENT);
+            let inc = iface.incident(wi, n_inc);
             for (e, sel_w) in settings.receivers(n_el, ue) {
-                let target = Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
-                let wo = (target - hit.point).normalize();
-                if rough_vertices > 0 && wo.dot(n_inc).value() < 0.0 {
+                let Some(link) = self.link(hit.point, e) else {
+                    continue;
+                };
+                let transmitted = link.wo.dot(n_inc).value() < 0.0;
+                if rough_vertices > 0 && transmitted {
                     // Transmission-side arrival after an earlier rough vertex:
                     // already counted by that vertex's connection through this
                     // boundary (module docs, "Double counting").
                     continue;
                 }
-                let f_cos = iface.eval(wi, wo, n_inc);
+                let (f_cos, p_b) = inc.eval_pdf(link.wo);
                 if f_cos.value() != 0.0 {
                     // The connection leaves into the incident medium (reflection)
                     // or the other one (transmission).
                     let mut cstack = stack;
-                    if wo.dot(n_inc).value() < 0.0 {
+                    if transmitted {
                         cstack.cross(hit.object, entering);
                     }
-                    let p_b = iface.pdf(wi, wo, n_inc);
-                    self.connect(hit.point, cstack, w, f_cos, time, e, sel_w, p_b);
+                    self.connect(hit.point, cstack, w, f_cos, time, &link, sel_w, p_b);
                 }
             }
         }
