@@ -70,7 +70,8 @@ fn main() {
                     black_box(inst.bvh.traverse_f32(
                         o.map(|x| x as f32),
                         d.map(|x| x as f32),
-                        f32::INFINITY,
+                        1e-9,
+                        1.0,
                     ))
                     .is_some()
                 })
@@ -100,7 +101,8 @@ fn main() {
                     black_box(inst.bvh.traverse_f32(
                         o.map(|x| x as f32),
                         d.map(|x| x as f32),
-                        f32::INFINITY,
+                        1e-9,
+                        1.0,
                     ))
                     .is_some()
                 })

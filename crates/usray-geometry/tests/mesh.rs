@@ -237,7 +237,7 @@ fn bvh_closest_hit_equals_brute_force_on_valve() {
                 // Bare f32 traversal finds (nearly) the same hit.
                 let o32 = ray.origin.value().map(|x| x as f32);
                 let d32 = ray.dir.value().map(|x| x as f32);
-                let (t32, tri32) = inst.bvh.traverse_f32(o32, d32, f32::INFINITY).unwrap();
+                let (t32, tri32) = inst.bvh.traverse_f32(o32, d32, 0.0, f32::INFINITY).unwrap();
                 assert!((f64::from(t32) - t).abs() < 1e-6, "f32 {t32} vs {t}");
                 f32_same += usize::from(tri32 == tri);
             }
@@ -648,9 +648,15 @@ fn hits_close_to_the_origin_are_not_culled_by_the_bvh() {
         if delta >= 3e-5 {
             let (t32, _) = inst
                 .bvh
-                .traverse_f32(o.map(|x| x as f32), [0.0, 0.0, 1.0], 1.0)
+                .traverse_f32(o.map(|x| x as f32), [0.0, 0.0, 1.0], 0.0, 1.0)
                 .unwrap_or_else(|| panic!("bare traversal missed the face {delta} m ahead"));
             assert!((f64::from(t32) - delta).abs() < 1e-8, "{t32} vs {delta}");
+            // A `t_min` beyond the face skips it (like the tracer's `T_MIN`).
+            let beyond = (2.0 * delta) as f32;
+            assert!(inst
+                .bvh
+                .traverse_f32(o.map(|x| x as f32), [0.0, 0.0, 1.0], beyond, 1.0)
+                .is_none());
         }
     }
     // And from just behind the face nothing is hit.

@@ -208,7 +208,7 @@ fn rays_far_outside_f32_range_do_not_panic() {
         .is_none());
     assert!(inst
         .bvh
-        .traverse_f32([f32::NAN, 0.0, 0.0], [1.0, 0.0, 0.0], 1.0)
+        .traverse_f32([f32::NAN, 0.0, 0.0], [1.0, 0.0, 0.0], 0.0, 1.0)
         .is_none());
     assert!(!inst.contains([1e300, 0.0, 0.0]));
     assert!(inst

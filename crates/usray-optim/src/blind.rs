@@ -175,7 +175,7 @@ pub fn measured_image(d: &Draw, opts: &BlindOptions) -> Result<Vec<f64>, OptimEr
     )?;
     let peak = ch.samples.iter().fold(0.0f64, |m, v| m.max(v.abs()));
     let sigma = peak * 10f64.powf(-opts.noise_db / 20.0);
-    let mut st = d.seed ^ 0x6e6f_6973_65;
+    let mut st = d.seed ^ 0x6e_6f69_7365;
     for v in &mut ch.samples {
         let (u1, u2) = (splitmix(&mut st).max(1e-300), splitmix(&mut st));
         *v += sigma * (-2.0 * u1.ln()).sqrt() * (2.0 * core::f64::consts::PI * u2).cos();

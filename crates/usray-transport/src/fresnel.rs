@@ -51,9 +51,15 @@ pub struct Fresnel<T> {
 /// assert!((f.r - 0.5).abs() < 1e-12 && (f.t - 1.5).abs() < 1e-12);
 /// ```
 pub fn fresnel<T: Real>(cos_i: T, c1: T, c2: T, z1: T, z2: T) -> Fresnel<T> {
+    fresnel_ratio(cos_i, c2 / c1, z1, z2)
+}
+
+/// [`fresnel`] with the speed ratio `ratio = c2/c1` given (for many incidence
+/// angles on the same pair of media).
+#[inline]
+pub fn fresnel_ratio<T: Real>(cos_i: T, ratio: T, z1: T, z2: T) -> Fresnel<T> {
     let one = T::one();
     let cos_i = cos_i.clamp(T::zero(), one);
-    let ratio = c2 / c1;
     let sin2_t = ratio * ratio * (one - cos_i * cos_i);
     if sin2_t.value() >= 1.0 {
         return Fresnel {

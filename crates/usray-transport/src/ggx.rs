@@ -30,7 +30,7 @@
 //! A roughness below [`SMOOTH_ALPHA`] is treated as a perfectly smooth (delta)
 //! interface.
 
-use crate::fresnel::{fresnel, reflect, refract};
+use crate::fresnel::{fresnel, fresnel_ratio, reflect, refract};
 use usray_ad::Real;
 use usray_geometry::Vec3;
 
@@ -293,6 +293,37 @@ impl<T: Real> Interface<T> {
         }
     }
 
+    /// [`Interface::eval`] and [`Interface::pdf`] of the same directions in one
+    /// pass: [`Incident::eval_pdf`] of [`Interface::incident`].
+    pub fn eval_pdf(&self, wi: Vec3<T>, wo: Vec3<T>, n: Vec3<T>) -> (T, T) {
+        self.incident(wi, n).eval_pdf(wo)
+    }
+
+    /// The interface seen from the incident direction `wi` (normal `n` on its
+    /// side): the parts of the BSDF and its density that do not depend on the
+    /// outgoing direction, computed once for all receiver connections of a
+    /// vertex.
+    pub fn incident(&self, wi: Vec3<T>, n: Vec3<T>) -> Incident<T> {
+        let cos_i = wi.dot(n);
+        let valid = !self.smooth() && cos_i.value() > 0.0;
+        let (lambda_i, inv_cos_i) = if valid {
+            (smith_lambda(cos_i, self.alpha), cos_i.recip())
+        } else {
+            (T::zero(), T::zero())
+        };
+        Incident {
+            iface: *self,
+            wi,
+            n,
+            valid,
+            lambda_i,
+            g1_i: (T::one() + lambda_i).recip(),
+            inv_cos_i,
+            ratio: self.c2 / self.c1,
+            eta: (self.c1.recip(), self.c2.recip()),
+        }
+    }
+
     /// Density (1/sr) with which [`Interface::scatter`] produces `wo` in the lobe
     /// `wo` lies in (reflection when on the incident side): the visible-normal
     /// density times the half-vector Jacobian `1/(4|o·h|)` or
@@ -328,6 +359,81 @@ impl<T: Real> Interface<T> {
             }
             let den = ei * ih + eo * oh;
             vndf_pdf(wil, frame.to_local(h), self.alpha) * eo * eo * oh.abs() / (den * den)
+        }
+    }
+}
+
+/// An [`Interface`] seen from a fixed incident direction (see
+/// [`Interface::incident`]): evaluates the BSDF and its sampling density for
+/// many outgoing directions.
+#[derive(Clone, Copy, Debug)]
+pub struct Incident<T> {
+    iface: Interface<T>,
+    wi: Vec3<T>,
+    n: Vec3<T>,
+    /// Rough interface and `wi` on the side of `n`: else everything is 0.
+    valid: bool,
+    /// Smith `Λ(wi)`.
+    lambda_i: T,
+    /// `G1(wi) = 1/(1 + Λ(wi))`.
+    g1_i: T,
+    /// `1/(wi·n)`.
+    inv_cos_i: T,
+    /// `c2/c1`.
+    ratio: T,
+    /// Refractive indices `(1/c1, 1/c2)`.
+    eta: (T, T),
+}
+
+impl<T: Real> Incident<T> {
+    /// `f·|wo·n|` of [`Interface::eval`] (1/sr) and the density of
+    /// [`Interface::pdf`] (1/sr, in `T`: differentiated like it) for the
+    /// outgoing direction `wo`, sharing the half vector, Fresnel factor, `D`
+    /// and `Λ(wi)`. The visible-normal density is written without a local
+    /// frame: `D_i(h) = G1(i)·(i·h)·D(h)/(i·n)` only involves dot products,
+    /// which the orthonormal frame of [`Interface::pdf`] preserves (also in
+    /// their derivatives). Equal to `(eval, pdf)` up to rounding; both are 0
+    /// where `eval` returns early (where `pdf` is 0 too).
+    pub fn eval_pdf(&self, wo: Vec3<T>) -> (T, T) {
+        let zero = (T::zero(), T::zero());
+        let (wi, n) = (self.wi, self.n);
+        let cos_o = wo.dot(n);
+        if !self.valid || cos_o.value() == 0.0 {
+            return zero;
+        }
+        let f = &self.iface;
+        let g2 = |cos_o: T| (T::one() + self.lambda_i + smith_lambda(cos_o, f.alpha)).recip();
+        if cos_o.value() > 0.0 {
+            let h = (wi + wo).normalize();
+            let cos_ih = wi.dot(h);
+            if cos_ih.value() <= 0.0 {
+                return zero;
+            }
+            let fr = fresnel_ratio(cos_ih, self.ratio, f.z1, f.z2);
+            let d = ndf(h.dot(n), f.alpha);
+            let d_4ci = d * self.inv_cos_i.scale(0.25);
+            // pdf = D_i(h)/(4 i·h) = G1(i)·D(h)/(4 i·n).
+            (fr.r * d_4ci * g2(cos_o), self.g1_i * d_4ci)
+        } else {
+            let (ei, eo) = self.eta;
+            let mut h = -(wi * ei + wo * eo).normalize();
+            if h.dot(n).value() < 0.0 {
+                h = -h;
+            }
+            let ih = wi.dot(h);
+            let oh = wo.dot(h);
+            if ih.value() <= 0.0 || oh.value() >= 0.0 {
+                return zero;
+            }
+            let fr = fresnel_ratio(ih, self.ratio, f.z1, f.z2);
+            if fr.tir {
+                return zero;
+            }
+            let den = ei * ih + eo * oh;
+            let d = ndf(h.dot(n), f.alpha);
+            // |i·h||o·h|/|i·n| · η_o² D / den², shared by value and density.
+            let common = ih * oh.abs() * self.inv_cos_i * eo * eo * d / (den * den);
+            (fr.t * common * g2(cos_o.abs()), self.g1_i * common)
         }
     }
 }

@@ -69,13 +69,12 @@ use crate::effects::{attenuation, depth_gain, ScattererField};
 use crate::fresnel::fresnel;
 use crate::ggx::{Interface, SMOOTH_ALPHA};
 use crate::probe::{
-    cosine_hemisphere, element_at, element_x, receive_directivity, transmit_delay,
-    transmit_directivity,
+    cosine_hemisphere, element_at, element_x, transmit_delay, transmit_directivity, ReceiveLobe,
 };
 use crate::rng::{dim, PathSampler};
 use crate::scene::{Emission, MaterialT, SceneT};
 use usray_ad::Real;
-use usray_geometry::{MediumStack, Ray, Vec3};
+use usray_geometry::{Hit, MediumStack, Ray, Vec3};
 
 /// Closest distance (m) a ray may hit after leaving a surface: 0.1 µm, far below
 /// a wavelength (0.3 mm at 5 MHz) and above the f64 rounding of hit points.
@@ -127,6 +126,9 @@ impl TraceSettings {
             k => k.min(n_el),
         };
         (0..k).map(move |j| {
+            if k == n_el {
+                return (j, 1.0); // every element (the default): no divisions
+            }
             let lo = j * n_el / k;
             let hi = (j + 1) * n_el / k;
             let size = hi - lo;
@@ -181,16 +183,39 @@ pub struct TraceCounters {
     pub deposits: u64,
 }
 
+/// The straight line of a receiver connection (see `PathCtx::link`).
+#[derive(Clone, Copy)]
+struct Link<T> {
+    /// Receiving element.
+    e: usize,
+    /// Unit direction towards the element's centre.
+    wo: Vec3<T>,
+    /// Distance to it, metres.
+    r: T,
+}
+
 /// State shared by the steps of one path.
-struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>)> {
+struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     st: &'a SceneT<T>,
     settings: &'a TraceSettings,
     norm: T,
+    /// The elements' receive directivity.
+    lobe: ReceiveLobe<T>,
     counters: TraceCounters,
     out: F,
+    cast: C,
 }
 
-impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
+impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
+    /// Cast `ray` through the scene (`t ∈ [T_MIN, t_max]`): counted, reported to
+    /// the `cast` hook, then [`usray_geometry::Geometry::intersect`].
+    #[inline(always)]
+    fn intersect(&mut self, ray: &Ray<T>, t_max: f64) -> Option<Hit<T>> {
+        self.counters.rays += 1;
+        (self.cast)(ray, T_MIN, t_max);
+        self.st.geometry.intersect(ray, T_MIN, t_max)
+    }
+
     /// Deposit on element `e`, applying the depth gain and the `1/rays` norm.
     fn deposit(&mut self, e: usize, a: T, tau: T) {
         let st = self.st;
@@ -207,13 +232,31 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         });
     }
 
-    /// Receiver connection from `p` (medium stack `stack` on the side the
-    /// connection leaves into) with scattering factor `f_cos` (1/sr) and path
-    /// amplitude `w` at time `tau`, towards element `e` with estimator weight
-    /// `sel_w` (see [`TraceSettings::receivers`]). `p_bsdf` is the density
-    /// (1/sr) with which the vertex's own continuation sampling would produce the
-    /// connection direction (0 for volume scatterers): an unobstructed connection
-    /// is then MIS-weighted against a direct array hit of that continuation.
+    /// The straight line from `p` to element `e`'s centre, or `None` when no
+    /// connection can be made (closer than [`T_MIN`], or beyond the element's
+    /// receive cutoff, where its directivity is 0).
+    fn link(&self, p: Vec3<T>, e: usize) -> Option<Link<T>> {
+        let st = self.st;
+        let target = Vec3::new(element_x(st.pitch, st.n_elements, e), T::zero(), T::zero());
+        let v = target - p;
+        let r = v.length();
+        if r.value() <= T_MIN {
+            return None;
+        }
+        let wo = v * r.recip();
+        if !self.lobe.may_receive(-wo.z.value()) {
+            return None;
+        }
+        Some(Link { e, wo, r })
+    }
+
+    /// Receiver connection from `p` along `link` (medium stack `stack` on the
+    /// side the connection leaves into) with scattering factor `f_cos` (1/sr)
+    /// and path amplitude `w` at time `tau`, estimator weight `sel_w` (see
+    /// [`TraceSettings::receivers`]). `p_bsdf` is the density (1/sr) with which
+    /// the vertex's own continuation sampling would produce the connection
+    /// direction (0 for volume scatterers): an unobstructed connection is then
+    /// MIS-weighted against a direct array hit of that continuation.
     #[allow(clippy::too_many_arguments)]
     fn connect(
         &mut self,
@@ -222,7 +265,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         w: T,
         f_cos: T,
         tau: T,
-        e: usize,
+        link: &Link<T>,
         sel_w: f64,
         p_bsdf: T,
     ) {
@@ -230,16 +273,9 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         if f_cos.value() == 0.0 {
             return;
         }
-        let n_el = st.n_elements;
-        let target = Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
-        let v = target - p;
-        let r = v.length();
-        if r.value() <= T_MIN {
-            return;
-        }
-        let wo = v * r.recip();
+        let Link { e, wo, r } = *link;
         let cos_e = -wo.z;
-        let fd = receive_directivity(cos_e, st.main_lobe, st.cutoff);
+        let fd = self.lobe.eval(cos_e);
         if fd.value() == 0.0 {
             return;
         }
@@ -250,11 +286,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         let mut remaining = r;
         for crossing in 0..MAX_CONNECTION_CROSSINGS {
             let medium = *st.medium_of(stack.top());
-            let ray = Ray::new(origin, wo);
-            self.counters.rays += 1;
-            let hit = st
-                .geometry
-                .intersect(&ray, T_MIN, remaining.value() - T_MIN);
+            let hit = self.intersect(&Ray::new(origin, wo), remaining.value() - T_MIN);
             let Some(hit) = hit else {
                 time += remaining / medium.sound_speed;
                 amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, remaining);
@@ -341,7 +373,9 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
             for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {
-                self.connect(q, stack, a_q, f, t_q, e, sel_w, T::zero());
+                if let Some(link) = self.link(q, e) {
+                    self.connect(q, stack, a_q, f, t_q, &link, sel_w, T::zero());
+                }
             }
         }
     }
@@ -403,12 +437,35 @@ pub fn trace_path_from<T: Real>(
     start_stack: MediumStack,
     out: impl FnMut(Deposit<T>),
 ) -> TraceCounters {
+    trace_path_casts(st, settings, tx, el, ray, start_stack, out, |_, _, _| {})
+}
+
+/// [`trace_path_from`] that also calls `cast(ray, t_min, t_max)` for every ray
+/// the path casts, just before it is intersected with the scene
+/// ([`usray_geometry::Geometry::intersect`] over `t ∈ [t_min, t_max]` metres):
+/// path segments of every branch and receiver-connection segments, in order,
+/// one call per [`TraceCounters::rays`]. The rays are the tracer's exact
+/// hit-finding workload (the `render` bench replays them through bare BVH
+/// traversal).
+#[allow(clippy::too_many_arguments)]
+pub fn trace_path_casts<T: Real>(
+    st: &SceneT<T>,
+    settings: &TraceSettings,
+    tx: usize,
+    el: usize,
+    ray: u32,
+    start_stack: MediumStack,
+    out: impl FnMut(Deposit<T>),
+    cast: impl FnMut(&Ray<T>, f64, f64),
+) -> TraceCounters {
     let mut ctx = PathCtx {
         st,
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
+        lobe: ReceiveLobe::new(st.main_lobe, st.cutoff),
         counters: TraceCounters::default(),
         out,
+        cast,
     };
     let sampler = PathSampler::new(settings.seed, tx as u32, el as u32, ray);
     let n_el = st.n_elements;
@@ -466,7 +523,7 @@ pub fn trace_path_from<T: Real>(
     ctx.counters
 }
 
-impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
+impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
     /// Trace branch `b` to its next interaction (steps 2–5 of the module docs)
     /// and push its continuations onto `pending`.
     fn trace_branch(&mut self, b: Branch<T>, pending: &mut Vec<Branch<T>>) {
@@ -488,8 +545,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         let medium = *st.medium_of(stack.top());
         // Step 2: the next interface.
         let r = Ray::new(origin, dir);
-        self.counters.rays += 1;
-        let hit = st.geometry.intersect(&r, T_MIN, f64::INFINITY);
+        let hit = self.intersect(&r, f64::INFINITY);
         // The array plane z = 0, reached first by a ray travelling up.
         let t_array = if dir.z.value() < 0.0 {
             -origin.z / dir.z
@@ -535,7 +591,7 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
                         }
                         _ => T::one(),
                     };
-                    let fd = receive_directivity(-dir.z, st.main_lobe, st.cutoff);
+                    let fd = self.lobe.eval(-dir.z);
                     let tau = time + t_array / medium.sound_speed;
                     let a = w
                         * fd
@@ -574,25 +630,27 @@ impl<T: Real, F: FnMut(Deposit<T>)> PathCtx<'_, T, F> {
         // Step 5a: receiver connection from a rough interface.
         if iface.alpha.value() >= SMOOTH_ALPHA {
             let ue = sampler.uniform(bounce, dim::ELEMENT);
+            let inc = iface.incident(wi, n_inc);
             for (e, sel_w) in settings.receivers(n_el, ue) {
-                let target = Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
-                let wo = (target - hit.point).normalize();
-                if rough_vertices > 0 && wo.dot(n_inc).value() < 0.0 {
+                let Some(link) = self.link(hit.point, e) else {
+                    continue;
+                };
+                let transmitted = link.wo.dot(n_inc).value() < 0.0;
+                if rough_vertices > 0 && transmitted {
                     // Transmission-side arrival after an earlier rough vertex:
                     // already counted by that vertex's connection through this
                     // boundary (module docs, "Double counting").
                     continue;
                 }
-                let f_cos = iface.eval(wi, wo, n_inc);
+                let (f_cos, p_b) = inc.eval_pdf(link.wo);
                 if f_cos.value() != 0.0 {
                     // The connection leaves into the incident medium (reflection)
                     // or the other one (transmission).
                     let mut cstack = stack;
-                    if wo.dot(n_inc).value() < 0.0 {
+                    if transmitted {
                         cstack.cross(hit.object, entering);
                     }
-                    let p_b = iface.pdf(wi, wo, n_inc);
-                    self.connect(hit.point, cstack, w, f_cos, time, e, sel_w, p_b);
+                    self.connect(hit.point, cstack, w, f_cos, time, &link, sel_w, p_b);
                 }
             }
         }

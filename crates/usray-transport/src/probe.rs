@@ -42,21 +42,58 @@ pub fn transmit_directivity<T: Real>(dir: Vec3<T>) -> T {
 /// main lobe `α_m`, falling linearly to `0` at the cutoff `α_c`, `0` beyond.
 #[inline]
 pub fn receive_directivity<T: Real>(cos_alpha: T, main_lobe: T, cutoff: T) -> T {
-    // Compare cosines first: the arccos is needed only on the linear flank.
-    let c = cos_alpha.value();
-    if c <= 0.0 || c < cutoff.value().cos() {
-        return T::zero();
+    ReceiveLobe::new(main_lobe, cutoff).eval(cos_alpha)
+}
+
+/// [`receive_directivity`] of fixed lobe angles, with their cosines computed
+/// once (the tracer evaluates it for every receiver connection).
+#[derive(Clone, Copy, Debug)]
+pub struct ReceiveLobe<T> {
+    main_lobe: T,
+    cutoff: T,
+    cos_main_lobe: f64,
+    cos_cutoff: f64,
+}
+
+impl<T: Real> ReceiveLobe<T> {
+    /// The lobe of main-lobe angle `main_lobe` and cutoff `cutoff`, radians.
+    #[inline]
+    pub fn new(main_lobe: T, cutoff: T) -> Self {
+        Self {
+            main_lobe,
+            cutoff,
+            cos_main_lobe: main_lobe.value().cos(),
+            cos_cutoff: cutoff.value().cos(),
+        }
     }
-    if c >= main_lobe.value().cos() {
-        return T::one();
+
+    /// False when the directivity at `cos_alpha` is certainly 0 (beyond the
+    /// cutoff); a cheap test before [`ReceiveLobe::eval`].
+    #[inline]
+    pub fn may_receive(&self, cos_alpha: f64) -> bool {
+        cos_alpha > 0.0 && cos_alpha >= self.cos_cutoff
     }
-    let a = cos_alpha.safe_acos();
-    if a.value() > cutoff.value() {
-        T::zero()
-    } else if a.value() <= main_lobe.value() {
-        T::one()
-    } else {
-        (cutoff - a) / (cutoff - main_lobe)
+
+    /// The directivity at `cos_alpha` (see [`receive_directivity`]).
+    #[inline]
+    pub fn eval(&self, cos_alpha: T) -> T {
+        // Compare cosines first: the arccos is needed only on the linear flank.
+        let c = cos_alpha.value();
+        if !self.may_receive(c) {
+            return T::zero();
+        }
+        if c >= self.cos_main_lobe {
+            return T::one();
+        }
+        let (main_lobe, cutoff) = (self.main_lobe, self.cutoff);
+        let a = cos_alpha.safe_acos();
+        if a.value() > cutoff.value() {
+            T::zero()
+        } else if a.value() <= main_lobe.value() {
+            T::one()
+        } else {
+            (cutoff - a) / (cutoff - main_lobe)
+        }
     }
 }
 

@@ -588,9 +588,15 @@ impl MeshBvh {
     /// unit `dir`), mapped to the BVH frame in `f32`, `f32` Möller–Trumbore of
     /// `obvhs::triangle::Triangle::intersect`, no `f64` refinement and no
     /// derivative work. Returns `(t, mesh triangle index)` of the closest hit with
-    /// `0 ≤ t ≤ t_max` (metres, `f32` accuracy). Compare whole-tracer rays/s
-    /// against this on the same rays.
-    pub fn traverse_f32(&self, origin: [f32; 3], dir: [f32; 3], t_max: f32) -> Option<(f32, u32)> {
+    /// `t_min ≤ t ≤ t_max` (metres, `f32` accuracy). Compare whole-tracer rays/s
+    /// against this on the same rays and `t` ranges.
+    pub fn traverse_f32(
+        &self,
+        origin: [f32; 3],
+        dir: [f32; 3],
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(f32, u32)> {
         if !(origin.iter().chain(dir.iter()).all(|c| c.is_finite())) || t_max.is_nan() {
             return None;
         }
@@ -601,7 +607,12 @@ impl MeshBvh {
             (origin[1] - c[1]) * scale - dir[1] * shift,
             (origin[2] - c[2]) * scale - dir[2] * shift,
         );
-        let ray = obvhs::ray::Ray::new(o, Vec3A::from(dir), shift, t_max * scale + shift);
+        let ray = obvhs::ray::Ray::new(
+            o,
+            Vec3A::from(dir),
+            t_min.max(0.0) * scale + shift,
+            t_max * scale + shift,
+        );
         let mut rh = RayHit::none();
         if self.bvh.ray_traverse(ray, &mut rh, |r, id| {
             self.prim_f32[self.bvh.primitive_indices[id] as usize].intersect(r)
