@@ -316,13 +316,13 @@ mixed_ops!(
 impl<const N: usize> Sum for Dual<N> {
     #[inline]
     fn sum<I: Iterator<Item = Self>>(iter: I) -> Self {
-        iter.fold(Self::constant(0.0), |a, b| a + b)
+        iter.fold(Self::constant(-0.0), |a, b| a + b)
     }
 }
 
 impl<'a, const N: usize> Sum<&'a Dual<N>> for Dual<N> {
     #[inline]
     fn sum<I: Iterator<Item = &'a Self>>(iter: I) -> Self {
-        iter.fold(Self::constant(0.0), |a, b| a + *b)
+        iter.fold(Self::constant(-0.0), |a, b| a + *b)
     }
 }

@@ -847,13 +847,13 @@ mixed_ops!(
 impl Sum for Var {
     #[inline]
     fn sum<I: Iterator<Item = Self>>(iter: I) -> Self {
-        iter.fold(Self::constant(0.0), |a, b| a + b)
+        iter.fold(Self::constant(-0.0), |a, b| a + b)
     }
 }
 
 impl<'a> Sum<&'a Var> for Var {
     #[inline]
     fn sum<I: Iterator<Item = &'a Self>>(iter: I) -> Self {
-        iter.fold(Self::constant(0.0), |a, b| a + *b)
+        iter.fold(Self::constant(-0.0), |a, b| a + *b)
     }
 }

@@ -331,3 +331,20 @@ fn is_finite_checks_partials_of_duals() {
     assert!(Dual::<1>::variable(1.0, 0).safe_acos().is_finite());
     assert!(!Dual::<1>::constant(f64::NAN).is_finite());
 }
+
+/// Sums start from `−0.0`, the IEEE additive identity that `f64`'s `Sum` uses, so an
+/// empty sum (or a sum of negative zeros) has the same sign in every mode (a
+/// proptest found `−Σ[]` = `+0.0` in `f64` but `−0.0` in `Dual`).
+#[test]
+fn empty_and_negative_zero_sums_match_f64_bits() {
+    let f64_empty: f64 = core::iter::empty::<f64>().sum();
+    let d: Dual<1> = core::iter::empty::<Dual<1>>().sum();
+    assert_eq!(d.value().to_bits(), f64_empty.to_bits());
+    let negs: f64 = [-0.0f64, -0.0].iter().sum();
+    let dn: Dual<1> = [Dual::<1>::constant(-0.0), Dual::constant(-0.0)].iter().sum();
+    assert_eq!(dn.value().to_bits(), negs.to_bits());
+    let rec = Recording::start();
+    let v: Var = core::iter::empty::<Var>().sum();
+    assert_eq!(v.value().to_bits(), f64_empty.to_bits());
+    drop(rec);
+}
