@@ -341,7 +341,9 @@ fn empty_and_negative_zero_sums_match_f64_bits() {
     let d: Dual<1> = core::iter::empty::<Dual<1>>().sum();
     assert_eq!(d.value().to_bits(), f64_empty.to_bits());
     let negs: f64 = [-0.0f64, -0.0].iter().sum();
-    let dn: Dual<1> = [Dual::<1>::constant(-0.0), Dual::constant(-0.0)].iter().sum();
+    let dn: Dual<1> = [Dual::<1>::constant(-0.0), Dual::constant(-0.0)]
+        .iter()
+        .sum();
     assert_eq!(dn.value().to_bits(), negs.to_bits());
     let rec = Recording::start();
     let v: Var = core::iter::empty::<Var>().sum();
