@@ -16,13 +16,12 @@
 //!    of the ℓ2 term `c = (2λ₂/N) Σ_u J_u²` from one more render
 //!    (`J_u = ∂I_u/∂θ` by a forward difference of 1% of the range):
 //!
-//!    `score = [max(0, L_cal − L_on) + g²/(2c)] / L_cal`
+//!    `score = max(0, L_cal − min(L_on, L(θ_on − g/c))) / L_cal`
 //!
-//!    — the relative loss reduction predicted by a Newton step along the effect
-//!    (for the pure ℓ2 loss, `g²/(2c)/L` is the squared cosine between the
-//!    residual and the effect's image derivative: the share of the residual the
-//!    effect explains to first order). A one-sided parameter at its null whose
-//!    gradient points out of the range scores only its first term. The
+//!    — the relative loss reduction of a Newton step along the effect (kept in
+//!    its range), checked by one more render at the step because the
+//!    Gauss–Newton model overshoots where the image is far from linear in the
+//!    parameter (a speckle field appearing). The
 //!    [`DiagnoseOptions::confirm_top`] best are refitted (effect parameter + the
 //!    base free parameters, [`DiagnoseOptions::refit_iters`] iterations).
 //! 4. **How far it shrinks**: losses on **held-out** data: the simulation is
@@ -497,14 +496,21 @@ pub fn diagnose(
             .map(|(a, b)| ((a - b) / h).powi(2))
             .sum();
         let curvature = 2.0 * obj.loss.lambda2 * jj / e.image.data.len() as f64;
-        // A one-sided parameter at the bottom of its range cannot follow g > 0.
-        let blocked = !c.two_sided && onset <= c.range.0 && g > 0.0;
-        let newton = if curvature > 0.0 && !blocked {
-            g * g / (2.0 * curvature)
+        // The Newton step along the effect, kept in its range, and the loss there
+        // (one more render): the Gauss–Newton model overshoots where the image is
+        // far from linear in the parameter (a speckle field appearing), so its
+        // prediction is checked rather than trusted.
+        let step = if curvature > 0.0 {
+            (onset - g / curvature).clamp(c.range.0, c.range.1)
         } else {
-            0.0
+            onset
         };
-        let score = ((cal_eval.loss - e.loss).max(0.0) + newton) / cal_eval.loss;
+        let l_step = if step != onset {
+            obj.value(&[step])?.loss
+        } else {
+            e.loss
+        };
+        let score = (cal_eval.loss - e.loss.min(l_step)).max(0.0) / cal_eval.loss;
         onsets.push(onset);
         effects.push(EffectResult {
             effect: c.effect.clone(),
