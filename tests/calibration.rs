@@ -8,20 +8,11 @@ use usray::optim::{
 };
 use usray::transport::{RenderOptions, Scene};
 
-const CYLINDER: &str = include_str!("../scenes/cylinder.toml");
+mod common;
 
-/// `scenes/cylinder.toml` reduced for CI: 32 elements, 3 angles, a 0.2 mm grid
-/// around the cylinder.
+/// The CI-size cylinder on a 0.2 mm grid.
 fn small_scene() -> Scene {
-    let mut s = Scene::from_toml_str(CYLINDER, "cylinder.toml", ".").unwrap();
-    s.probe.n_elements = 32;
-    s.acquisition.angles_deg = vec![-5.0, 0.0, 5.0];
-    s.acquisition.max_depth_m = 0.025;
-    s.imaging.x_range_m = [-0.008, 0.008];
-    s.imaging.z_range_m = [0.007, 0.023];
-    s.imaging.pixel_m = 0.2e-3;
-    s.validate().unwrap();
-    s
+    common::ci_cylinder(0.2e-3)
 }
 
 /// Rays per element of the CI-size experiments.

@@ -6,19 +6,11 @@ use usray::optim::blind::{draw, measured_image, verdict_is_false_effect, BlindOp
 use usray::optim::{diagnose, DiagnoseOptions};
 use usray::transport::{RenderOptions, Scene};
 
-const CYLINDER: &str = include_str!("../scenes/cylinder.toml");
+mod common;
 
-/// `scenes/cylinder.toml` reduced for CI: 32 elements, 3 angles, a 0.25 mm grid.
+/// The CI-size cylinder on a 0.25 mm grid.
 fn base() -> Scene {
-    let mut s = Scene::from_toml_str(CYLINDER, "cylinder.toml", ".").unwrap();
-    s.probe.n_elements = 32;
-    s.acquisition.angles_deg = vec![-5.0, 0.0, 5.0];
-    s.acquisition.max_depth_m = 0.025;
-    s.imaging.x_range_m = [-0.008, 0.008];
-    s.imaging.z_range_m = [0.007, 0.023];
-    s.imaging.pixel_m = 0.25e-3;
-    s.validate().unwrap();
-    s
+    common::ci_cylinder(0.25e-3)
 }
 
 fn options(rays: usize, iters: usize) -> (BlindOptions, DiagnoseOptions) {
