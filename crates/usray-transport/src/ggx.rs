@@ -249,6 +249,10 @@ impl<T: Real> Interface<T> {
     /// `f(wi, wo)·|wo·n|` (1/sr) for a connection direction `wo`: reflection when
     /// `wo` is on the incident side, transmission otherwise. Zero for a smooth
     /// interface (delta lobes cannot be hit by a chosen direction).
+    ///
+    /// Reference form (Walter 2007 eqs. 20–21 as written); the tracer uses the
+    /// equal, cheaper [`Incident::eval_pdf`] (checked against this in
+    /// `tests/ggx.rs`).
     pub fn eval(&self, wi: Vec3<T>, wo: Vec3<T>, n: Vec3<T>) -> T {
         if self.smooth() {
             return T::zero();
@@ -328,7 +332,11 @@ impl<T: Real> Interface<T> {
     /// `wo` lies in (reflection when on the incident side): the visible-normal
     /// density times the half-vector Jacobian `1/(4|o·h|)` or
     /// `η_o²|o·h|/(η_i(i·h) + η_o(o·h))²` (Walter 2007 eqs. 14, 17). Zero for a
-    /// smooth interface. Used for MIS weights, differentiated like the rest.
+    /// smooth interface.
+    ///
+    /// Reference form, derived through the local frame and [`vndf_pdf`]; the
+    /// tracer's MIS weights use the equal, cheaper [`Incident::eval_pdf`]
+    /// (checked against this to 1e-12 in `tests/ggx.rs`).
     pub fn pdf(&self, wi: Vec3<T>, wo: Vec3<T>, n: Vec3<T>) -> T {
         let frame = Frame::new(n);
         let wil = frame.to_local(wi);

@@ -627,10 +627,13 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         let n_inc = if entering { hit.normal } else { -hit.normal };
         let wi = -dir;
 
+        // The rough interface as seen from `wi`: BSDF and density terms shared by
+        // every receiver connection and both continuations of this vertex.
+        let incident = (iface.alpha.value() >= SMOOTH_ALPHA).then(|| iface.incident(wi, n_inc));
+
         // Step 5a: receiver connection from a rough interface.
-        if iface.alpha.value() >= SMOOTH_ALPHA {
+        if let Some(inc) = &incident {
             let ue = sampler.uniform(bounce, dim::ELEMENT);
-            let inc = iface.incident(wi, n_inc);
             for (e, sel_w) in settings.receivers(n_el, ue) {
                 let Some(link) = self.link(hit.point, e) else {
                     continue;
@@ -682,8 +685,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 time,
                 stack: child_stack,
                 specular_chain: specular_chain && !rough,
-                last_rough: (rough && (reflected || rough_vertices == 0))
-                    .then(|| iface.pdf(wi, lobe.wo, n_inc)),
+                last_rough: incident
+                    .as_ref()
+                    .filter(|_| rough && (reflected || rough_vertices == 0))
+                    .map(|inc| inc.eval_pdf(lobe.wo).1),
                 rough_vertices: rough_vertices + u32::from(rough),
                 bounce: bounce + 1,
                 sampler: sampler.branch(branch),
