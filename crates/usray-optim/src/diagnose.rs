@@ -62,8 +62,6 @@ pub struct Candidate {
     pub effect: String,
     /// The strength parameter's dotted path once switched on.
     pub path: String,
-    /// Value at which the extension gives back the base model.
-    pub null: f64,
     /// Values at which it may be scored: the null where the model is smooth
     /// there; else a few values across the range (the best by loss is scored).
     pub onsets: Vec<f64>,
@@ -123,12 +121,13 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
     for o in &scene.objects {
         if o.shape == ShapeKind::Cylinder && o.thickness_m.is_none() {
             if let Some(r) = o.radius_m {
-                // Onset: one wavelength of wall (the null, a solid cylinder, is a
-                // change of structure: a wall of zero thickness is invisible).
+                // The null (a solid cylinder) is a change of structure, and a wall
+                // of zero thickness is invisible: scored at the best of three
+                // walls across the radius. Thinnest wall in a refit: a quarter
+                // wavelength (or an eighth of the radius).
                 out.push(Candidate {
                     effect: "wall_thickness".into(),
                     path: format!("objects.{}.thickness_m", o.name),
-                    null: r,
                     onsets: vec![0.1 * r, 0.25 * r, 0.45 * r],
                     range: (0.25 * lambda.min(0.5 * r), 0.95 * r),
                     two_sided: false,
@@ -141,7 +140,6 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         out.push(Candidate {
             effect: "attenuation".into(),
             path: "medium.attenuation_db_cm_mhz".into(),
-            null: 0.0,
             onsets: vec![0.0],
             range: (0.0, 2.0),
             two_sided: false,
@@ -164,7 +162,6 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             out.push(Candidate {
                 effect: "attenuation".into(),
                 path: format!("materials.{m}.attenuation_db_cm_mhz"),
-                null: 0.0,
                 onsets: vec![0.0],
                 range: (0.0, 2.0),
                 two_sided: false,
@@ -179,7 +176,6 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             out.push(Candidate {
                 effect: "volume_scattering".into(),
                 path: format!("materials.{m}.scatterer_strength"),
-                null: 0.0,
                 onsets: vec![0.1],
                 range: (0.0, 2.0),
                 two_sided: false,
@@ -200,7 +196,6 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         out.push(Candidate {
             effect: "sound_speed".into(),
             path: "medium.sound_speed_m_s".into(),
-            null: c_img,
             onsets: vec![c_img],
             range: (0.93 * c_img, 1.07 * c_img),
             two_sided: true,
@@ -211,7 +206,6 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         out.push(Candidate {
             effect: "depth_gain".into(),
             path: "acquisition.depth_gain_db_per_cm".into(),
-            null: 0.0,
             onsets: vec![0.0],
             range: (-3.0, 3.0),
             two_sided: true,
