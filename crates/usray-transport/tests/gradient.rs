@@ -2,21 +2,8 @@
 //! independence, agreement with a dual render.
 
 mod common;
-use common::scene_path;
+use common::{scene_path, weights};
 use usray_transport::{channel_gradient, render, render_lifted, RenderOptions, Scene};
-
-/// Fixed pseudo-random weights in [−0.5, 0.5) (xorshift), the loss L = Σ w·P.
-fn weights(n: usize, seed: u64) -> Vec<f64> {
-    let mut x = seed;
-    (0..n)
-        .map(|_| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        })
-        .collect()
-}
 
 fn opts(rays: usize, threads: usize) -> RenderOptions {
     RenderOptions {

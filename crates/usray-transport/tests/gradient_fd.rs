@@ -16,20 +16,8 @@
 //! over the step; error ≤ 1e-7 there, roundoff-limited below).
 
 mod common;
-use common::scene_path;
+use common::{scene_path, weights};
 use usray_transport::{channel_gradient, render, RenderOptions, Scene};
-
-fn weights(n: usize, seed: u64) -> Vec<f64> {
-    let mut x = seed;
-    (0..n)
-        .map(|_| {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        })
-        .collect()
-}
 
 /// A shipped scene at 0° steering only, with extra replacements.
 fn scene_0deg(name: &str, angles: &str, extra: &[(&str, &str)]) -> Scene {
