@@ -44,37 +44,100 @@ pub fn depth_gain<T: Real>(g_db_cm: T, c: T, t: T) -> T {
 
 /// A fixed field of sub-resolution point scatterers filling a material.
 ///
-/// Space is cut into cubic cells of side `h = (1/ρ)^{1/3}` (ρ the density in
-/// scatterers per m³), each holding exactly one scatterer at a position and
-/// with an amplitude `g` that are pure hashes of (object, cell): the same for
-/// every ray, transmit and seed, so echoes from different rays add coherently
-/// and form **speckle** (a fixed pattern, not Monte Carlo noise).
+/// Space is cut into cubic cells of side `h = (1/ρ_g)^{1/3}`, each holding exactly
+/// one scatterer at a position and with an amplitude `g` that are pure hashes of
+/// (object, cell): the same for every ray, transmit and seed, so echoes from
+/// different rays add coherently and form **speckle** (a fixed pattern, not Monte
+/// Carlo noise).
 ///
-/// Along a ray segment inside the material, scattering events are found by
-/// **free-flight sampling** at rate `μ = 1/h` per metre (on average one event per
-/// cell crossed; an event in a cell selects that cell's scatterer), so that the
-/// expected contribution of a cell is proportional to the ray length inside it.
-/// Each event re-radiates isotropically `f = strength·g/(4π)` per steradian of
-/// the incident amplitude (`g` uniform on `[−√3, √3]`, unit variance) through a
-/// receiver connection; the ray itself continues unchanged (first-order Born
-/// scattering: the scatterers are weak and do not deplete the beam).
-/// Cell size and positions use the density's value (no gradient through them);
-/// the strength carries gradients.
+/// **Estimator.** Along a ray segment inside the material, scattering events are
+/// found by **free-flight sampling** at rate `μ = 1/h` per metre (on average one
+/// event per cell crossed); an event in a cell selects that cell's scatterer,
+/// which re-radiates isotropically through a receiver connection; the ray itself
+/// continues unchanged (first-order Born scattering: the scatterers are weak and
+/// do not deplete the beam). Rays sample the beam's cross-section (a path's
+/// weight carries the area per ray, as for a surface hit, whose contributions
+/// estimate `∫ dA`), so the expected sum of an event factor `F` over all events
+/// is `∫ dA ∫ μ F ds = μ ∫ F dV`. For the scatterer of a cell to contribute its
+/// own amplitude `A` once, `F = A/(μ h³) = A/h²` on its cell: each event carries
+/// the factor `A·(1 mm/h)²` with `A` in mm² (per steradian of the incident
+/// amplitude), [`ScattererField::event_weight`] × `strength·g/(4π)`.
+///
+/// **Amplitudes and density.** `A = strength·√(ρ/ρ_g)·g/(4π)`, `g` uniform on
+/// `[−√3, √3]` (unit variance). The grid's density `ρ_g` is the material's
+/// density `ρ` rounded *up* to a power of two
+/// ([`ScattererField::grid_density_per_mm3`]), and the weight `√(ρ/ρ_g)` ∈
+/// (1/√2, 1] makes the expected echo power per volume `ρ_g·E[A²] ∝ ρ·strength²`,
+/// the power of `ρ` scatterers per mm³ (incoherent sum of random phasors, Szabo,
+/// *Diagnostic Ultrasound Imaging*, §8.3; the "equivalent scatterer" scaling of
+/// Field II phantoms). So the image is a smooth function of `ρ` between powers of
+/// two and the density has a gradient. The grid — positions and cell count —
+/// changes only where `ρ` crosses a power of two, a discontinuity of measure zero
+/// that is not differentiated (like a visibility change). The grid holds 1–2× the
+/// scatterers `ρ` asks for, which leaves speckle statistics (fully developed
+/// above ~10 scatterers per resolution cell) much as they are.
 #[derive(Clone, Copy, Debug)]
 pub struct ScattererField {
     /// Cell side `h`, metres.
     pub cell_m: f64,
+    /// Density of the grid `ρ_g` (a power of two), scatterers per mm³.
+    pub grid_per_mm3: f64,
     /// Key of the owning object.
     pub key: u64,
 }
 
 impl ScattererField {
-    /// The field of object `object` with density `per_mm3` (scatterers per mm³).
+    /// The field of object `object` with density `per_mm3` (scatterers per mm³);
+    /// `None` for a density that is not positive and finite.
+    ///
+    /// ```
+    /// use usray_transport::effects::ScattererField;
+    /// let f = ScattererField::new(0, 5.0).unwrap();
+    /// assert_eq!(f.grid_per_mm3, 8.0); // 5 rounded up to a power of two
+    /// assert!((f.cell_m - 0.5e-3).abs() < 1e-15); // (1/8 mm³)^{1/3}
+    /// assert!(ScattererField::new(0, 0.0).is_none());
+    /// ```
     pub fn new(object: usize, per_mm3: f64) -> Option<Self> {
-        (per_mm3 > 0.0).then(|| Self {
-            cell_m: 1e-3 * per_mm3.powf(-1.0 / 3.0),
+        let grid = Self::grid_density_per_mm3(per_mm3)?;
+        Some(Self {
+            cell_m: 1e-3 * grid.powf(-1.0 / 3.0),
+            grid_per_mm3: grid,
             key: mix64(0x5ca7_7e2e_0000_0000 ^ object as u64),
         })
+    }
+
+    /// `ρ_g`: the smallest power of two `≥ per_mm3` (`None` unless positive and
+    /// finite).
+    pub fn grid_density_per_mm3(per_mm3: f64) -> Option<f64> {
+        if !(per_mm3 > 0.0 && per_mm3.is_finite()) {
+            return None;
+        }
+        // `log2` may be off by one ulp near an exact power: correct both ways.
+        let mut k = per_mm3.log2().ceil() as i32;
+        while 2f64.powi(k) < per_mm3 {
+            k += 1;
+        }
+        while 2f64.powi(k - 1) >= per_mm3 {
+            k -= 1;
+        }
+        Some(2f64.powi(k))
+    }
+
+    /// The factor `√(ρ/ρ_g)·(1 mm/h)² = √(ρ/ρ_g)·ρ_g^{2/3}` (ρ in per mm³) of
+    /// every scattering event for the material's density `ρ`, in `T`: its
+    /// derivative carries the density's gradient, `∂/∂ρ = weight/(2ρ)`.
+    ///
+    /// ```
+    /// use usray_transport::effects::ScattererField;
+    /// let f = ScattererField::new(0, 4.0).unwrap(); // a power of two: h = 0.63 mm
+    /// assert!((f.event_weight(4.0f64) - 4f64.powf(2.0 / 3.0)).abs() < 1e-12);
+    /// ```
+    #[inline]
+    pub fn event_weight<T: Real>(&self, per_mm3: T) -> T {
+        per_mm3
+            .scale(1.0 / self.grid_per_mm3)
+            .sqrt()
+            .scale(self.grid_per_mm3.powf(2.0 / 3.0))
     }
 
     /// The scatterer of the cell containing point `p` (metres): its position

@@ -349,6 +349,9 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         if medium.scatterer_strength.value() == 0.0 {
             return;
         }
+        // √(ρ/ρ_g)·(1 mm/h)²: the density's (differentiable) share of each
+        // event's amplitude, and the cell's cross-section (see ScattererField).
+        let density_weight = field.event_weight(medium.scatterer_density_per_mm3);
         let mu = 1.0 / field.cell_m;
         let mut s = 0.0;
         for k in 0..MAX_VOLUME_EVENTS {
@@ -367,8 +370,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 self.st.center_frequency,
                 along,
             );
-            let f = medium
-                .scatterer_strength
+            let f = (medium.scatterer_strength * density_weight)
                 .scale(g / (4.0 * core::f64::consts::PI));
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
