@@ -3,18 +3,24 @@
 //! none, or one *outside* the catalogue — at a random strength and seed, plus
 //! measurement noise. The diagnosis sees only the base scene and the image.
 //!
-//! Draw `i` takes kind `i mod 7` (so 20 draws span every kind) and a strength and
+//! Draw `i` takes kind `i mod 8` (so 24 draws take every kind three times) and a strength and
 //! seed hashed from `(seed, i)`:
 //!
 //! | kind | switched on | strength drawn uniformly in |
 //! |---|---|---|
 //! | `wall_thickness` | first cylinder's `thickness_m` | [0.25, 0.4] × radius |
 //! | `attenuation` | the medium's and every material's `attenuation_db_cm_mhz` | [0.5, 1.5] dB/(cm·MHz) |
-//! | `volume_scattering` | first object material's scatterers, density [`crate::SCATTERER_DENSITY_PER_MM3`] | strength [0.5, 1.5] |
+//! | `volume_scattering` | first object material's scatterers, density [`crate::SCATTERER_DENSITY_PER_MM3`] | strength [0.17, 0.51] |
 //! | `sound_speed` | medium speed, beamformer kept | ±[3, 6] % |
 //! | `depth_gain` | `acquisition.depth_gain_db_per_cm` | ±[1, 2] dB/cm |
+//! | `pulse_length` | `probe.cycles` | [1.5, 2] × base |
 //! | `none` | nothing | — |
-//! | `outside` (pulse length, not in the catalogue) | `probe.cycles` | [2, 2.5] × base |
+//! | `outside` (not in the catalogue) | an unmodelled wire: a 0.3 mm rod of 7 MRayl outside the first cylinder | its depth (m) |
+//!
+//! (The scatterer strengths give the speckle power of strengths [0.5, 1.5] in the
+//! model before the event weight of [`usray_transport::effects::ScattererField`]
+//! was fixed: power per volume is now `ρ·strength²`, it was `ρ^{−1/3}·strength²`,
+//! a factor `5^{4/3}` at 5 per mm³.)
 //!
 //! Measurement noise: white Gaussian noise added to the channel data at
 //! [`BlindOptions::noise_db`] below the largest absolute sample, before
@@ -26,12 +32,13 @@ use usray_transport::scene::ShapeKind;
 use usray_transport::{render, RenderOptions, Scene};
 
 /// The kinds a draw can take, in draw order.
-pub const KINDS: [&str; 7] = [
+pub const KINDS: [&str; 8] = [
     "wall_thickness",
     "attenuation",
     "volume_scattering",
     "sound_speed",
     "depth_gain",
+    "pulse_length",
     "none",
     "outside",
 ];
@@ -123,7 +130,7 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
                 .first()
                 .map(|o| o.material.clone())
                 .ok_or_else(|| missing("the base scene has no object"))?;
-            let s = 0.5 + u;
+            let s = 0.17 + 0.34 * u;
             scene.set(
                 &format!("materials.{m}.scatterer_density_per_mm3"),
                 crate::SCATTERER_DENSITY_PER_MM3,
@@ -143,11 +150,13 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
             scene.acquisition.depth_gain_db_per_cm = g;
             g
         }
-        "outside" => {
-            let f = 2.0 + 0.5 * u;
+        "pulse_length" => {
+            let f = 1.5 + 0.5 * u;
             scene.probe.cycles *= f;
             f
         }
+        "outside" => add_wire(&mut scene, &mut st)
+            .ok_or_else(|| missing("no room for a wire outside the first cylinder in the image"))?,
         _ => 0.0,
     };
     scene.validate()?;
@@ -157,6 +166,45 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
         scene,
         seed,
     })
+}
+
+/// The `outside` effect: an unmodelled wire — a rod (cylinder along the
+/// elevation axis) of radius 0.3 mm and impedance 7 MRayl (a metal-like
+/// reflector, with the first object's roughness so that it echoes back to the
+/// array) at a random place in the image's central 70% × 80%, at least 1.5 mm
+/// clear of the first cylinder. No catalogue effect adds an echo where the base
+/// scene has no structure. Returns the wire's depth, metres; `None` when 200
+/// tries find no room.
+fn add_wire(scene: &mut Scene, st: &mut u64) -> Option<f64> {
+    const WIRE_RADIUS_M: f64 = 0.3e-3;
+    const CLEARANCE_M: f64 = 1.5e-3;
+    let host = scene
+        .objects
+        .iter()
+        .find(|o| o.shape == ShapeKind::Cylinder)?
+        .clone();
+    let r_host = host.radius_m?;
+    let [x0, x1] = scene.imaging.x_range_m;
+    let [z0, z1] = scene.imaging.z_range_m;
+    let (xc, zc) = (0.5 * (x0 + x1), 0.5 * (z0 + z1));
+    let place = (0..200).find_map(|_| {
+        let x = xc + 0.7 * (x1 - x0) * (splitmix(st) - 0.5);
+        let z = zc + 0.8 * (z1 - z0) * (splitmix(st) - 0.5);
+        let d = (x - host.center_m[0]).hypot(z - host.center_m[2]);
+        (d > r_host + WIRE_RADIUS_M + CLEARANCE_M).then_some((x, z))
+    })?;
+    let mut material = scene.materials.get(&host.material)?.clone();
+    material.impedance_mrayl = 7.0;
+    scene.materials.insert("blind_wire".into(), material);
+    scene.objects.push(usray_transport::scene::Object {
+        name: "blind_wire".into(),
+        material: "blind_wire".into(),
+        center_m: [place.0, 0.0, place.1],
+        radius_m: Some(WIRE_RADIUS_M),
+        thickness_m: None,
+        ..host
+    });
+    Some(place.1)
 }
 
 /// The measured-like B-mode of a draw: render with the draw's seed, add white

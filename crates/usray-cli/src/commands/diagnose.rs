@@ -115,6 +115,15 @@ fn report(
         "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}) and no candidate effect shrinks it on held-out data by the required share.\n", d.calibrated.loss_held_out, d.noise_loss)?,
         e => writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}).\n", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out)?,
     }
+    if !d.verdict.alternatives.is_empty() {
+        let alt: Vec<String> = d
+            .verdict
+            .alternatives
+            .iter()
+            .map(|a| format!("`{a}`"))
+            .collect();
+        writeln!(r, "**Not told apart:** {} explain(s) these data about as well (held-out shrink within {:.2}); more data (other angles, depths, channel data) would be needed to choose.\n", alt.join(", "), usray_optim::TIE_MARGIN)?;
+    }
     writeln!(r, "## 1. Calibrated base model\n")?;
     writeln!(r, "| parameter | value |\n|---|---|")?;
     for (p, v) in &d.calibrated.params {
