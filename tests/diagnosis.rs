@@ -36,8 +36,8 @@ fn options(rays: usize, iters: usize) -> (BlindOptions, DiagnoseOptions) {
 
 /// The paper's case: data from a ring whose wall is a draw of 0.25–0.4 × the
 /// radius, diagnosed against the plain cylinder. Measured: verdict
-/// `wall_thickness`, held-out shrink 0.68, wall 1.90 mm found for 1.89 mm, radius
-/// 5.040 mm calibrated and 4.991 mm with the wall (true 5).
+/// `wall_thickness`, held-out shrink 0.66, wall 1.897 mm found for 1.893 mm, radius
+/// 5.040 mm calibrated and 4.996 mm with the wall (true 5).
 #[test]
 fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
     let base = base();
@@ -63,7 +63,7 @@ fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
     );
     // The paper's point: the base model's radius is biased by the wall it
     // lacks; once the wall is added, the bias shrinks (measured: +0.80% →
-    // −0.19%, wall 1.904 mm for 1.893 mm).
+    // −0.09%).
     let r_true = base.get("objects.cylinder.radius_m").unwrap();
     let r_cal = r.calibrated.params["objects.cylinder.radius_m"];
     let r_after = radius_after.expect("the wall_thickness refit reports the radius");

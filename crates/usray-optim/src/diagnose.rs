@@ -25,7 +25,9 @@
 //!    model overshoots where the image is far from linear in the parameter (a
 //!    speckle field appearing), and halved once if it raised the loss. The
 //!    [`DiagnoseOptions::confirm_top`] best are refitted (effect parameter + the
-//!    base free parameters, [`DiagnoseOptions::refit_iters`] iterations).
+//!    base free parameters, [`DiagnoseOptions::refit_iters`] iterations), each
+//!    starting from its best rendered point of the scoring (the checked step if
+//!    it lowered the loss, else the onset).
 //! 4. **How far it shrinks**: losses on **held-out** data: the simulation is
 //!    re-rendered with an independent seed `s + 1` (other paths) at the
 //!    calibrated and at the refitted parameters, so an effect that only fits the
@@ -474,7 +476,7 @@ pub fn diagnose(
     let t = Instant::now();
     let candidates = catalogue(&cal_scene);
     let mut effects = Vec::new();
-    let mut onsets = Vec::new();
+    let mut starts = Vec::new();
     for c in &candidates {
         progress(&format!("scoring {}", c.effect));
         let spec = ParamSpec {
@@ -542,17 +544,25 @@ pub fn diagnose(
         // `MIN_CHECKED_REDUCTION` of the calibrated loss is not worth a render:
         // such a candidate is scored by the prediction.
         let predicted = e.loss + g * (step - onset) + 0.5 * curvature * (step - onset).powi(2);
+        // The refit starts from the best *rendered* point: the checked step if it
+        // lowered the loss, else the onset.
         let mut l_step = e.loss;
+        let mut start = onset;
         if step != onset && (cal_eval.loss - predicted) < MIN_CHECKED_REDUCTION * cal_eval.loss {
             l_step = predicted;
         } else if step != onset {
-            l_step = obj.value(&[step])?.loss;
+            let mut at = step;
+            l_step = obj.value(&[at])?.loss;
             if l_step > e.loss {
-                l_step = obj.value(&[0.5 * (onset + step)])?.loss;
+                at = 0.5 * (onset + step);
+                l_step = obj.value(&[at])?.loss;
+            }
+            if l_step < e.loss {
+                start = at;
             }
         }
         let score = (cal_eval.loss - e.loss.min(l_step)).max(0.0) / cal_eval.loss;
-        onsets.push(onset);
+        starts.push(start);
         effects.push(EffectResult {
             effect: c.effect.clone(),
             path: c.path.clone(),
@@ -574,11 +584,11 @@ pub fn diagnose(
     for &k in order.iter().take(opts.confirm_top) {
         let c = &candidates[k];
         progress(&format!("refitting with {}", c.effect));
-        // Start strictly inside the range: at a bound the clip map's derivative is
-        // zero (paper eq. clip_grad), so a strength starting at its null (the
-        // bottom of its range) would never move.
+        // Start from the scoring's best rendered point, strictly inside the range:
+        // at a bound the clip map's derivative is zero (paper eq. clip_grad), so a
+        // strength starting at its null (the bottom of its range) would never move.
         let margin = 0.01 * (c.range.1 - c.range.0);
-        let start = onsets[k].clamp(c.range.0 + margin, c.range.1 - margin);
+        let start = starts[k].clamp(c.range.0 + margin, c.range.1 - margin);
         let on = c.switched_on(&cal_scene, start)?;
         let mut refit_specs = vec![ParamSpec {
             path: c.path.clone(),
