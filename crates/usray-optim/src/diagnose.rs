@@ -34,7 +34,10 @@
 //!    Monte Carlo noise of seed `s` does not look like an explanation:
 //!    `shrink = 1 − loss_after / loss_calibrated`, both held out.
 //! 5. **Verdict**: the confirmed effect with the largest shrink if it reaches
-//!    [`DiagnoseOptions::min_shrink`]; otherwise `"none"` when the held-out
+//!    [`DiagnoseOptions::min_shrink`] — where several come within [`TIE_MARGIN`]
+//!    of the largest, the one with the highest score (it explains the gap along
+//!    its own parameter, without the base parameters' help), the others listed
+//!    as [`Verdict::alternatives`]; otherwise `"none"` when the held-out
 //!    calibrated loss is within [`DiagnoseOptions::noise_factor`] of the Monte
 //!    Carlo noise level (the loss between the calibrated model rendered with
 //!    seeds `s` and `s + 1`), and `"unexplained"` when a real gap remains.
@@ -347,7 +350,7 @@ pub struct Verdict {
     pub shrink: f64,
     /// Other refitted effects that explain the data about as well: held-out
     /// shrink at least [`DiagnoseOptions::min_shrink`] and within
-    /// [`TIE_MARGIN`] of the named effect's. These data do not tell them apart
+    /// [`TIE_MARGIN`] of the largest. These data do not tell them apart
     /// (e.g. a negative depth gain and an attenuation that darken the far wall
     /// alike).
     pub alternatives: Vec<String>,
@@ -392,6 +395,35 @@ pub struct Diagnosis {
     /// Simulated image after the verdict's refit (the calibrated one when none).
     #[serde(skip)]
     pub after_image: Vec<f64>,
+}
+
+/// Which refitted effect the verdict names, from each refit's `(score, held-out
+/// shrink)`: among the refits whose shrink reaches `min_shrink` and comes within
+/// [`TIE_MARGIN`] of the largest (the data do not tell them apart), the one with
+/// the highest score — the effect that explains the gap along its own parameter
+/// at the calibrated point, rather than with the base parameters' help in its
+/// refit. Returns its index and the indices of all tied refits (itself
+/// included); `None` when no shrink reaches `min_shrink`.
+///
+/// ```
+/// use usray_optim::name_effect;
+/// // Shrinks 0.25 and 0.26 tie; the first has the higher score.
+/// let (i, tied) = name_effect(&[(0.18, 0.25), (0.09, 0.26), (0.12, 0.13)], 0.2).unwrap();
+/// assert_eq!((i, tied), (0, vec![0, 1]));
+/// // A clear winner is named whatever its score.
+/// assert_eq!(name_effect(&[(0.5, 0.3), (0.1, 0.7)], 0.2).unwrap().0, 1);
+/// assert!(name_effect(&[(0.5, 0.1)], 0.2).is_none());
+/// ```
+pub fn name_effect(refits: &[(f64, f64)], min_shrink: f64) -> Option<(usize, Vec<usize>)> {
+    let top = refits.iter().map(|r| r.1).fold(f64::NEG_INFINITY, f64::max);
+    let tied: Vec<usize> = (0..refits.len())
+        .filter(|&i| refits[i].1 >= min_shrink && refits[i].1 > top - TIE_MARGIN)
+        .collect();
+    let named = tied
+        .iter()
+        .copied()
+        .max_by(|&a, &b| refits[a].0.total_cmp(&refits[b].0))?;
+    Some((named, tied))
 }
 
 /// Runs the diagnosis of `scene` against the measured B-mode `measured` (`[nz, nx]`
@@ -580,7 +612,8 @@ pub fn diagnose(
 
     // Step 4: refit the leading candidates; held-out shrink.
     let t = Instant::now();
-    let mut best: Option<(usize, f64, Vec<f64>)> = None;
+    // (candidate, simulated image after its refit) of each refit.
+    let mut refits: Vec<(usize, Vec<f64>)> = Vec::new();
     for &k in order.iter().take(opts.confirm_top) {
         let c = &candidates[k];
         progress(&format!("refitting with {}", c.effect));
@@ -629,32 +662,41 @@ pub fn diagnose(
             .map(|(s, v)| (s.path.clone(), *v))
             .chain(c.fixed.iter().cloned())
             .collect();
-        if best.as_ref().is_none_or(|b| shrink > b.1) {
-            let image = obj.value(&r.final_params)?.image.data;
-            best = Some((k, shrink, image));
-        }
+        refits.push((k, obj.value(&r.final_params)?.image.data));
     }
     timings.refits_s = t.elapsed().as_secs_f64();
 
     // Step 5: verdict.
-    let (verdict, after_image) = match best {
-        Some((k, shrink, image)) if shrink >= opts.min_shrink => (
+    let refitted: Vec<(f64, f64)> = refits
+        .iter()
+        .map(|(k, _)| {
+            (
+                effects[*k].score,
+                effects[*k].shrink.unwrap_or(f64::NEG_INFINITY),
+            )
+        })
+        .collect();
+    let named = name_effect(&refitted, opts.min_shrink).map(|(i, tied)| {
+        let k = refits[i].0;
+        let alternatives: Vec<String> = tied
+            .iter()
+            .map(|&j| effects[refits[j].0].effect.clone())
+            .filter(|e| *e != effects[k].effect)
+            .collect();
+        (k, alternatives)
+    });
+    let (verdict, after_image) = match named {
+        Some((k, alternatives)) => (
             Verdict {
                 effect: effects[k].effect.clone(),
-                shrink,
-                alternatives: effects
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, e)| {
-                        *j != k
-                            && e.effect != effects[k].effect
-                            && e.shrink
-                                .is_some_and(|x| x >= opts.min_shrink && x > shrink - TIE_MARGIN)
-                    })
-                    .map(|(_, e)| e.effect.clone())
-                    .collect(),
+                shrink: effects[k].shrink.unwrap_or(0.0),
+                alternatives,
             },
-            image,
+            refits
+                .into_iter()
+                .find(|(j, _)| *j == k)
+                .map(|(_, image)| image)
+                .unwrap_or_default(),
         ),
         _ => {
             let effect = if held.loss <= opts.noise_factor * noise_loss {

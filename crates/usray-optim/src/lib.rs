@@ -43,8 +43,8 @@ pub mod residual;
 
 pub use adam::{Adam, AdamGroup};
 pub use diagnose::{
-    catalogue, default_free_params, diagnose, Calibrated, Candidate, DiagnoseOptions, Diagnosis,
-    EffectResult, Timings, Verdict, EFFECT_LEARNING_RATE, MIN_CHECKED_REDUCTION,
+    catalogue, default_free_params, diagnose, name_effect, Calibrated, Candidate, DiagnoseOptions,
+    Diagnosis, EffectResult, Timings, Verdict, EFFECT_LEARNING_RATE, MIN_CHECKED_REDUCTION,
     SCATTERER_DENSITY_PER_MM3, TIE_MARGIN,
 };
 pub use fd::{fd_sweep, log_steps, FdPoint};
