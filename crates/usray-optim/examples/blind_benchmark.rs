@@ -1,14 +1,15 @@
 //! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
 //!
 //! ```text
-//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json]
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED]]
 //! ```
 //!
 //! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
 //! the five catalogue effects, none, and one outside the catalogue; random
 //! strength, seed and measurement noise: `usray_optim::blind`), diagnoses each
 //! against the base scene with `RAYS` rays per element and `ITERS` iterations of
-//! calibration and refits, and prints one line per draw and the summary.
+//! calibration and refits, and prints one line per draw and the summary. `SEED`
+//! (default 2026) is the master seed of the draws: another seed, other draws.
 
 use usray_optim::blind::{
     draw, measured_image, verdict_is_false_effect, verdict_is_right, BlindOptions,
@@ -19,7 +20,7 @@ use usray_transport::{RenderOptions, Scene};
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.len() < 4 {
-        eprintln!("usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json]");
+        eprintln!("usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED]]");
         std::process::exit(2);
     }
     let parse = |i: usize| -> usize {
@@ -41,10 +42,13 @@ fn main() {
         rays_per_element: Some(rays),
         ..Default::default()
     };
-    let bopts = BlindOptions {
+    let mut bopts = BlindOptions {
         render: render.clone(),
         ..Default::default()
     };
+    if args.len() > 5 {
+        bopts.seed = parse(5) as u64;
+    }
     let dopts = DiagnoseOptions {
         calibration_iters: iters,
         refit_iters: iters,
