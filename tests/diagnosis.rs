@@ -2,8 +2,10 @@
 //! diagnosed against a zero-thickness (solid) cylinder — must name
 //! `wall_thickness` and find the wall; and a draw with no effect must not name one.
 
-use usray::optim::blind::{draw, measured_image, verdict_is_false_effect, BlindOptions, KINDS};
-use usray::optim::{diagnose, DiagnoseOptions};
+use usray::optim::blind::{
+    draw, measured_image, verdict_is_false_effect, BlindOptions, Draw, KINDS,
+};
+use usray::optim::{diagnose, DiagnoseOptions, Diagnosis};
 use usray::transport::{RenderOptions, Scene};
 
 mod common;
@@ -34,18 +36,25 @@ fn options(rays: usize, iters: usize) -> (BlindOptions, DiagnoseOptions) {
     )
 }
 
+/// Blind draw `i` of `kind` from the CI base scene (12 rays/element, 20
+/// iterations) and its diagnosis against the base scene.
+fn diagnose_draw(i: usize, kind: &str) -> (Scene, Draw, Diagnosis) {
+    let base = base();
+    let (b, d) = options(12, 20);
+    let drawn = draw(&base, i, &b).unwrap();
+    assert_eq!(drawn.kind, kind);
+    let measured = measured_image(&drawn, &b).unwrap();
+    let r = diagnose(&base, &measured, &d, |_| {}).unwrap();
+    (base, drawn, r)
+}
+
 /// The paper's case: data from a ring whose wall is a draw of 0.25–0.4 × the
 /// radius, diagnosed against the plain cylinder. Measured: verdict
 /// `wall_thickness`, held-out shrink 0.66, wall 1.897 mm found for 1.893 mm, radius
 /// 5.040 mm calibrated and 4.996 mm with the wall (true 5).
 #[test]
 fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
-    let base = base();
-    let (b, d) = options(12, 20);
-    let wall = draw(&base, 0, &b).unwrap();
-    assert_eq!(wall.kind, KINDS[0]);
-    let measured = measured_image(&wall, &b).unwrap();
-    let r = diagnose(&base, &measured, &d, |_| {}).unwrap();
+    let (base, wall, r) = diagnose_draw(0, KINDS[0]);
     let refit = r.effects.iter().find(|e| e.effect == "wall_thickness");
     let found = refit.and_then(|e| e.params.get("objects.cylinder.thickness_m").copied());
     let radius_after = refit.and_then(|e| e.params.get("objects.cylinder.radius_m").copied());
@@ -72,7 +81,7 @@ fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
         "radius bias did not shrink: calibrated {r_cal}, with the wall {r_after}, true {r_true}"
     );
     // Scoring all candidates costs less than one refit.
-    assert!(r.timings.scoring_s < r.timings.refits_s / d.confirm_top as f64);
+    assert!(r.timings.scoring_s < r.timings.refits_s / options(12, 20).1.confirm_top as f64);
 }
 
 /// A draw with no effect (measurement noise only) must not name an effect.
@@ -82,12 +91,7 @@ fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
 /// candidate models (a noise-floor candidate is future work).
 #[test]
 fn no_effect_names_no_false_effect() {
-    let base = base();
-    let (b, d) = options(12, 20);
-    let none = draw(&base, 6, &b).unwrap();
-    assert_eq!(none.kind, "none");
-    let measured = measured_image(&none, &b).unwrap();
-    let r = diagnose(&base, &measured, &d, |_| {}).unwrap();
+    let (_, _, r) = diagnose_draw(6, "none");
     eprintln!(
         "no effect: verdict {} (shrink {:.2}); held-out {:.3e}, noise {:.3e}",
         r.verdict.effect, r.verdict.shrink, r.calibrated.loss_held_out, r.noise_loss
@@ -99,12 +103,7 @@ fn no_effect_names_no_false_effect() {
 /// cylinder — must be `unexplained`, not a false effect.
 #[test]
 fn unmodelled_wire_is_unexplained() {
-    let base = base();
-    let (b, d) = options(12, 20);
-    let wire = draw(&base, 7, &b).unwrap();
-    assert_eq!(wire.kind, "outside");
-    let measured = measured_image(&wire, &b).unwrap();
-    let r = diagnose(&base, &measured, &d, |_| {}).unwrap();
+    let (_, wire, r) = diagnose_draw(7, "outside");
     eprintln!(
         "wire at depth {:.2} mm: verdict {} (shrink {:.2}); held-out {:.3e}, noise {:.3e}; {:?}",
         wire.strength * 1e3,
