@@ -2,13 +2,16 @@
 //!
 //! Each thread (each rayon worker) owns one tape. A [`Recording`] claims it:
 //! inputs are created with [`Recording::input`], generic code runs in [`Var`]
-//! (every operation between two non-constant `Var`s appends one node: two
-//! parents and their partials; a unary operation, or a binary one with a
-//! constant argument, appends nothing but multiplies the result's *scale*, the
-//! partial of its value with respect to the node it points at), and [`Recording::gradient`] sweeps the tape backwards once, *adding*
+//! (every operation between two `Var`s pointing at different nodes appends one
+//! node: two parents and their partials; a unary operation, a binary one with a
+//! constant argument, or one whose two arguments point at the same node, appends
+//! nothing but multiplies the result's *scale*, the partial of its value with
+//! respect to the node it points at), and [`Recording::gradient`] sweeps the tape backwards once, *adding*
 //! `∂y/∂xᵢ` into a caller-provided slice. Dropping the recording (or
 //! [`Recording::restart`]) clears the tape but keeps its memory, so a per-path
-//! loop allocates nothing once the tape has grown to the longest path. Nothing
+//! loop allocates nothing once the tape has grown to the longest path;
+//! [`Recording::freeze`] / [`Recording::rewind`] keep a shared prefix (inputs
+//! and what was computed from them once) across paths. Nothing
 //! is shared between threads, so results do not depend on scheduling.
 //!
 //! Constants ([`Var::constant`], [`Real::from_f64`], [`Real::detach`]) carry the
@@ -113,11 +116,14 @@ const DUMMY: Node = Node {
     db: 0.0,
 };
 
-/// The per-thread tape (the id of the live recording is in [`LIVE`]).
+/// The per-thread tape (the ids of the live recording are in [`LIVE`]).
 struct Tape {
     nodes: Vec<Node>,
     inputs: Vec<u32>,
     adj: Vec<f64>,
+    /// Lengths of `nodes` and `inputs` at [`Recording::freeze`] (what
+    /// [`Recording::rewind`] keeps); 0 when not frozen.
+    frozen: (usize, usize),
 }
 
 thread_local! {
@@ -131,23 +137,36 @@ thread_local! {
     static TAPE: Cell<Option<&'static RefCell<Tape>>> = const { Cell::new(None) };
     /// Frees this thread's tape buffers when the thread exits.
     static RELEASE: TapeRelease = const { TapeRelease };
-    /// Id of the recording live on this thread, 0 if none. Kept outside the
-    /// tape so that checking a `Var` is one thread-local load, with no borrow.
-    static LIVE: Cell<u32> = const { Cell::new(0) };
+    /// Ids of the recording live on this thread: `(current, frozen)`, both 0
+    /// if none. `Var`s recorded now carry the current id; those made before
+    /// [`Recording::freeze`] carry the frozen id (0 when not frozen, which no
+    /// non-constant `Var` carries). Kept outside the tape so that checking a
+    /// `Var` is one thread-local load, with no borrow.
+    static LIVE: Cell<(u32, u32)> = const { Cell::new((0, 0)) };
 }
 
-/// Id of the recording live on this thread (0 if none).
+/// Ids of the recording live on this thread, `(current, frozen)` (see [`LIVE`]).
 #[inline(always)]
-fn live() -> u32 {
+fn live() -> (u32, u32) {
     LIVE.with(Cell::get)
 }
 
-/// Panics unless `rec` is the recording live on this thread.
+/// True when a non-constant `Var` of recording id `rec` may be used now.
+#[inline(always)]
+fn valid(rec: u32, (current, frozen): (u32, u32)) -> bool {
+    // Both compares, no short circuit: whether a `Var` is the path's or the
+    // frozen scene's varies from one operation to the next, so a branch
+    // between the two would be mispredicted often.
+    rec == current || rec == frozen
+}
+
+/// Panics unless `rec` (of a non-constant `Var`) belongs to the recording live
+/// on this thread.
 #[inline(always)]
 fn check_live(rec: u32) {
     let live = live();
-    if rec != live {
-        stale(rec, live);
+    if !valid(rec, live) {
+        stale(rec, live.0);
     }
 }
 
@@ -158,7 +177,10 @@ impl Drop for TapeRelease {
     fn drop(&mut self) {
         if let Ok(Some(t)) = TAPE.try_with(Cell::get) {
             if let Ok(mut t) = t.try_borrow_mut() {
-                if LIVE.try_with(Cell::get) == Ok(0) {
+                if LIVE
+                    .try_with(Cell::get)
+                    .is_ok_and(|(current, _)| current == 0)
+                {
                     t.nodes = Vec::new();
                     t.inputs = Vec::new();
                     t.adj = Vec::new();
@@ -184,6 +206,7 @@ fn new_tape() -> &'static RefCell<Tape> {
         nodes: Vec::new(),
         inputs: Vec::new(),
         adj: Vec::new(),
+        frozen: (0, 0),
     })));
     TAPE.with(|c| c.set(Some(t)));
     // Touch the guard so its destructor is registered for this thread.
@@ -253,9 +276,10 @@ impl Tape {
 
     /// Reset for a new recording `id`, keeping capacity.
     fn begin(&mut self, id: u32) {
-        LIVE.with(|c| c.set(id));
+        LIVE.with(|c| c.set((id, 0)));
         self.nodes.clear();
         self.inputs.clear();
+        self.frozen = (0, 0);
         self.nodes.push(DUMMY);
     }
 }
@@ -316,7 +340,10 @@ impl Var {
 /// assert_eq!(grad, [2.0 * 3.0, 1.0 * 3.0]); // Σ_path path · (θ₁, θ₀)
 /// ```
 pub struct Recording {
+    /// Id carried by the `Var`s recorded now.
     id: u32,
+    /// Id of the `Var`s made before [`Recording::freeze`] (0: not frozen).
+    frozen: u32,
     _not_send: PhantomData<*const ()>,
 }
 
@@ -337,7 +364,7 @@ impl Recording {
         with_tape(|t| {
             let t = &mut *t.borrow_mut();
             assert!(
-                live() == 0,
+                live().0 == 0,
                 "usray_ad::reverse: nested reverse-mode recordings are not supported \
                  (a Recording is already live on this thread)"
             );
@@ -345,6 +372,7 @@ impl Recording {
         });
         Self {
             id,
+            frozen: 0,
             _not_send: PhantomData,
         }
     }
@@ -355,6 +383,69 @@ impl Recording {
     pub fn restart(&mut self) {
         let id = fresh_id();
         with_tape(|t| t.borrow_mut().begin(id));
+        self.id = id;
+        self.frozen = 0;
+    }
+
+    /// Keep what has been recorded so far (inputs, and the `Var`s computed from
+    /// them) for reuse after each [`Recording::rewind`]: e.g. a scene lifted once
+    /// onto the tape and shared by many paths, each recorded, differentiated and
+    /// rewound in turn. `Var`s made before the freeze stay valid; those made
+    /// after it become invalid at the next rewind (a fresh id, checked as usual).
+    /// Memory is kept.
+    ///
+    /// # Panics
+    /// If the recording is already frozen (undo it with [`Recording::restart`]).
+    ///
+    /// ```
+    /// use usray_ad::reverse::Recording;
+    /// use usray_ad::Real;
+    /// let mut rec = Recording::start();
+    /// let [a, b] = rec.inputs_array::<2>(&[3.0, 4.0]);
+    /// let shared = a * b; // e.g. the lifted scene: recorded once
+    /// rec.freeze();
+    /// let mut grad = [0.0; 2];
+    /// for k in 1..=2 {
+    ///     rec.rewind(); // drops the previous path's nodes, keeps `a`, `b`, `shared`
+    ///     let y = shared * f64::from(k) + a; // a path using them
+    ///     rec.gradient(y, &mut grad);
+    /// }
+    /// assert_eq!(grad, [4.0 * 3.0 + 2.0, 3.0 * 3.0]);
+    /// ```
+    pub fn freeze(&mut self) {
+        assert!(
+            self.frozen == 0,
+            "usray_ad::reverse: Recording::freeze called twice (restart first)"
+        );
+        let id = fresh_id();
+        with_tape(|t| {
+            let t = &mut *t.borrow_mut();
+            t.frozen = (t.nodes.len(), t.inputs.len());
+            LIVE.with(|c| c.set((id, self.id)));
+        });
+        self.frozen = self.id;
+        self.id = id;
+    }
+
+    /// Return the tape to the [`Recording::freeze`] point: everything recorded
+    /// after it is dropped (memory kept), and `Var`s made after it become
+    /// invalid (a fresh id); those made before stay valid.
+    ///
+    /// # Panics
+    /// If the recording is not frozen.
+    pub fn rewind(&mut self) {
+        assert!(
+            self.frozen != 0,
+            "usray_ad::reverse: Recording::rewind without Recording::freeze"
+        );
+        let id = fresh_id();
+        with_tape(|t| {
+            let t = &mut *t.borrow_mut();
+            let (nodes, inputs) = t.frozen;
+            t.nodes.truncate(nodes);
+            t.inputs.truncate(inputs);
+            LIVE.with(|c| c.set((id, self.frozen)));
+        });
         self.id = id;
     }
 
@@ -471,8 +562,8 @@ impl Recording {
         );
         with_tape(|t| {
             let t = &mut *t.borrow_mut();
-            let rec = live();
-            debug_assert_eq!(rec, self.id);
+            let live = live();
+            debug_assert_eq!(live.0, self.id);
             assert_eq!(
                 grad.len(),
                 t.inputs.len(),
@@ -480,12 +571,14 @@ impl Recording {
                 grad.len(),
                 t.inputs.len()
             );
-            let Tape { nodes, inputs, adj } = t;
+            let Tape {
+                nodes, inputs, adj, ..
+            } = t;
             let mut top = 0usize;
             for y in ys {
                 if y.index != 0 {
-                    if y.rec != rec {
-                        stale(y.rec, rec);
+                    if !valid(y.rec, live) {
+                        stale(y.rec, live.0);
                     }
                     top = top.max(y.index as usize);
                 }
@@ -591,8 +684,8 @@ fn propagate(n: Node, i: usize, g: f64, adj: &mut [f64], mask: usize) -> f64 {
 impl Drop for Recording {
     fn drop(&mut self) {
         if let Ok(mut t) = tape().try_borrow_mut() {
-            if live() == self.id {
-                LIVE.with(|c| c.set(0));
+            if live().0 == self.id {
+                LIVE.with(|c| c.set((0, 0)));
                 t.nodes.clear();
                 t.inputs.clear();
             }
@@ -676,8 +769,9 @@ impl Real for Var {
     }
 
     /// `z = g(x, y)` with partials `dfdx`, `dfdy`: one node when both arguments
-    /// carry derivatives; with a constant argument this is a unary step
-    /// ([`Real::chain`]) and records nothing.
+    /// carry derivatives of different nodes; with a constant argument, or both
+    /// pointing at the same node ([`record`]), this is a unary step and records
+    /// nothing.
     #[inline(always)]
     fn chain2(self, other: Self, f: f64, dfdx: f64, dfdy: f64) -> Self {
         match (self.index == 0, other.index == 0) {
@@ -691,37 +785,66 @@ impl Real for Var {
 
 /// Append the node `value ← (a, da), (b, db)` to this thread's tape.
 ///
-/// Deliberately the *only* place an operation touches the tape: with a single
-/// call site of `LocalKey::with` the compiler inlines the TLS access
-/// (several closures at many call sites were left as out-of-line calls plus an
-/// indirect call, ~2× slower reverse mode).
+/// The only place an operation touches the tape. Forced inline, with the tape
+/// borrowed directly (no closure): the thread-local access is then a
+/// thread-pointer load in every operation. Left to the compiler, this function
+/// (or a closure around the tape access) stayed out of line in much of the
+/// transport's code, a call per recorded node; `cargo bench -p usray-transport
+/// --bench gradient` measured the reverse replay ≈ 10% slower that way.
 ///
 /// Both `a` and `b` carry derivatives (non-zero index); their scales are folded
-/// into the partials.
-#[inline]
+/// into the partials. When both point at the same node nothing is appended
+/// ([`same_node`]; tested here rather than in [`Real::chain2`], which is
+/// inlined into every operation and whose size decides what else the compiler
+/// inlines).
+#[inline(always)]
 fn record(value: f64, a: Var, da: f64, b: Var, db: f64) -> Var {
-    let rec = live();
-    if a.rec != rec || b.rec != rec {
-        stale(if a.rec != rec { a.rec } else { b.rec }, rec);
+    if a.index == b.index {
+        return same_node(value, a, da, b, db);
+    }
+    let live = live();
+    if !valid(a.rec, live) || !valid(b.rec, live) {
+        stale(if valid(a.rec, live) { b.rec } else { a.rec }, live.0);
     }
     let (ea, eb) = (a.scale * da, b.scale * db);
-    with_tape(|t| {
-        let t = &mut *t.borrow_mut();
-        // A zero partial points at the dummy node: the edge carries nothing,
-        // even an infinite adjoint or scale (`0·∞ = 0`, the convention of `Dual`).
-        let index = t.push(Node {
-            a: if da == 0.0 { 0 } else { a.index },
-            b: if db == 0.0 { 0 } else { b.index },
-            da: ea,
-            db: eb,
-        });
-        Var {
-            value,
-            scale: 1.0,
-            index,
-            rec,
-        }
-    })
+    let t = &mut *tape().borrow_mut();
+    // A zero partial points at the dummy node: the edge carries nothing,
+    // even an infinite adjoint or scale (`0·∞ = 0`, the convention of `Dual`).
+    let index = t.push(Node {
+        a: if da == 0.0 { 0 } else { a.index },
+        b: if db == 0.0 { 0 } else { b.index },
+        da: ea,
+        db: eb,
+    });
+    Var {
+        value,
+        scale: 1.0,
+        index,
+        rec: live.0,
+    }
+}
+
+/// `value = g(a, b)` where `a` and `b` point at the same node `n` (`x·x`,
+/// `x − 2x`, `v·v` in a dot product, …): a unary function of `n` with
+/// `∂value/∂n = a.scale·da + b.scale·db` (the chain rule through both
+/// arguments), so no node is recorded. A zero local partial cuts its term, even
+/// through an infinite scale (`0·∞ = 0`, as in [`record`]); a zero total makes
+/// the result a constant (as in [`Real::chain`]).
+#[inline(always)]
+fn same_node(value: f64, a: Var, da: f64, b: Var, db: f64) -> Var {
+    check_live(a.rec);
+    check_live(b.rec);
+    let term = |scale: f64, d: f64| if d == 0.0 { 0.0 } else { scale * d };
+    let scale = term(a.scale, da) + term(b.scale, db);
+    if scale == 0.0 {
+        return Var::constant(value);
+    }
+    Var {
+        value,
+        scale,
+        index: a.index,
+        rec: a.rec,
+    }
 }
 
 impl PartialEq for Var {

@@ -389,7 +389,7 @@ impl Objective {
                     ImagingRole::SoundSpeed => gradient[j] += cal.d_sound_speed,
                     ImagingRole::Pitch => gradient[j] += cal.d_pitch,
                     ImagingRole::CenterFrequency => {
-                        let part = self.demod_fc_derivative(&scene, &ch)?;
+                        let part = self.demod_fc_derivative(&scene, &ch, &mut ws)?;
                         demod_fc_part[j] = part;
                         gradient[j] += part;
                     }
@@ -407,16 +407,22 @@ impl Objective {
     }
 
     /// `∂L(B_fc(P))/∂f_c` with `P` fixed: central difference in the demodulation
-    /// frequency (see the module docs).
-    fn demod_fc_derivative(&self, scene: &Scene, ch: &ChannelData) -> Result<f64, OptimError> {
+    /// frequency (see the module docs). The operators at `f_c ± h` differ from
+    /// the forward's in that frequency only, so they read `ch` as it is (no copy
+    /// of the data) and reuse the forward's workspace `ws` (overwritten).
+    fn demod_fc_derivative(
+        &self,
+        scene: &Scene,
+        ch: &ChannelData,
+        ws: &mut usray_signal::Workspace,
+    ) -> Result<f64, OptimError> {
         let fc = ch.meta.center_frequency_hz;
         let h = 1e-4 * fc;
-        let at = |f: f64| -> Result<f64, OptimError> {
-            let mut c = ch.clone();
-            c.meta.center_frequency_hz = f;
-            let op = BMode::new(&scene.imaging_settings(), &c.meta, c.n_samples)?;
-            let mut ws = op.workspace();
-            let img = op.forward(&c, &mut ws)?;
+        let mut meta = ch.meta.clone();
+        let mut at = |f: f64| -> Result<f64, OptimError> {
+            meta.center_frequency_hz = f;
+            let op = BMode::new(&scene.imaging_settings(), &meta, ch.n_samples)?;
+            let img = op.forward(ch, ws)?;
             Ok(self.loss.value(&img.data, &self.reference))
         };
         Ok((at(fc + h)? - at(fc - h)?) / (2.0 * h))

@@ -22,7 +22,9 @@
 //!
 //! Speed: when the `x` grid is uniform and the pitch is an integer multiple of its
 //! step, the receive distance and phase are tabulated once per distinct `x − x_e`
-//! per row (same formula, same values up to rounding).
+//! per row (same formula, same values up to rounding). The calibration gradients
+//! use the same delays and phases as the forward pass (the phase of a delay as the
+//! product of its transmit and receive phases).
 //!
 //! Parallelism: the forward pass is split over image rows, each pixel summing in a
 //! fixed order; the VJP is split over elements, each sample accumulating pixels in
@@ -540,44 +542,68 @@ impl Das {
         let w = TAU * self.fc_hz;
         let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
         let mid = (ne as f64 - 1.0) / 2.0;
+        // The delays and phases of the forward pass (receive lattice when it
+        // applies, transmit part once per pixel), so that this differentiates the
+        // forward pass's own sample positions and rotations; the rotation
+        // `exp(iωτ)` is the product of the transmit and receive phases, one
+        // sincos per (pixel, transmit) and per receive distance instead of one
+        // per (pixel, element, transmit).
+        let table = self.rx_table();
+        let table = table.as_ref();
         let rows: Vec<(f64, f64)> = (0..self.z_m.len())
             .into_par_iter()
-            .map(|iz| {
-                let z = self.z_m[iz];
-                let (mut gc, mut gp) = (0.0, 0.0);
-                for (ix, &x) in self.x_m.iter().enumerate() {
-                    let p = (iz * nx + ix) * self.n_frames;
-                    for e in 0..ne {
-                        let dx = x - self.element_x(e);
-                        if !self.in_aperture(dx, z) {
-                            continue;
-                        }
-                        let r = (dx * dx + z * z).sqrt();
-                        let trx = r / c;
-                        let dtau_dp = -dx / (c * r.max(1e-300)) * (e as f64 - mid);
+            .map_init(
+                || {
+                    (
+                        vec![0.0; nt],
+                        vec![0.0; nt],
+                        vec![Complex64::new(1.0, 0.0); nt],
+                    )
+                },
+                |(ttr, ttx, rtx), iz| {
+                    let z = self.z_m[iz];
+                    let (mut gc, mut gp) = (0.0, 0.0);
+                    for (ix, &x) in self.x_m.iter().enumerate() {
+                        let p = (iz * nx + ix) * self.n_frames;
                         for t in 0..nt {
+                            // Transmit time, its offset from sample 0 and its phase.
                             let tt = (x * trig[t].0 + z * trig[t].1) / c;
-                            let tau = tt + trx;
-                            let s = (tau - self.t0_s[t]) * fs;
-                            let Some((i, fw)) = locate(s, ns) else {
+                            ttr[t] = tt;
+                            ttx[t] = tt - self.t0_s[t];
+                            if self.rotate {
+                                let (sn, co) = (w * tt).sin_cos();
+                                rtx[t] = Complex64::new(co, sn);
+                            }
+                        }
+                        for e in 0..ne {
+                            let Some((trx, rrx)) = self.rx(table, iz, ix, e) else {
                                 continue;
                             };
-                            let base = (t * ne + e) * ns + i;
-                            let (d0, d1) = (data[base], data[base + 1]);
-                            let mut dv = (d1 - d0).scale(fs);
-                            if self.rotate {
-                                let v = d0.scale(1.0 - fw) + d1.scale(fw);
-                                let (sn, co) = (w * tau).sin_cos();
-                                dv = (dv + v.times_i().scale(w)).rot(Complex64::new(co, sn));
+                            let dx = x - self.element_x(e);
+                            let r = (dx * dx + z * z).sqrt();
+                            let dtau_dp = -dx / (c * r.max(1e-300)) * (e as f64 - mid);
+                            for t in 0..nt {
+                                let s = (ttx[t] + trx) * fs;
+                                let Some((i, fw)) = locate(s, ns) else {
+                                    continue;
+                                };
+                                let base = (t * ne + e) * ns + i;
+                                let (d0, d1) = (data[base], data[base + 1]);
+                                let mut dv = (d1 - d0).scale(fs);
+                                if self.rotate {
+                                    let v = d0.scale(1.0 - fw) + d1.scale(fw);
+                                    dv = (dv + v.times_i().scale(w)).rot(rrx * rtx[t]);
+                                }
+                                let q = dv.dot(out_bar[p + self.frame_of[t]]);
+                                let tau = ttr[t] + trx;
+                                gc += q * (-tau / c);
+                                gp += q * dtau_dp;
                             }
-                            let q = dv.dot(out_bar[p + self.frame_of[t]]);
-                            gc += q * (-tau / c);
-                            gp += q * dtau_dp;
                         }
                     }
-                }
-                (gc, gp)
-            })
+                    (gc, gp)
+                },
+            )
             .collect();
         let (mut gc, mut gp) = (0.0, 0.0);
         for (a, b) in rows {

@@ -22,9 +22,10 @@
 //! # Mode
 //! Up to [`REVERSE_MIN_PARAMS`]` − 1` parameters: forward [`Dual`] passes of at
 //! most 8 partials each (one replay per pass). From [`REVERSE_MIN_PARAMS`] on:
-//! one replay with a per-path reverse [`Recording`] (the scene is lifted per path
-//! onto the fresh tape, reusing meshes and BVHs placed once,
-//! [`Scene::lift_with`]); the recording lives inside one work chunk, never
+//! one replay with a per-path reverse [`Recording`] (the scene is lifted once
+//! per work chunk onto the tape, reusing meshes and BVHs placed once,
+//! [`Scene::lift_with`], and frozen there: every path rewinds the tape to it,
+//! [`Recording::freeze`]); the recording lives inside one work chunk, never
 //! around a rayon call. Either way the memory is one path's tape plus one
 //! gradient vector per chunk: nothing grows with the ray count.
 //!
@@ -47,7 +48,9 @@
 //! in chunk order. The result is bit-identical for any thread count.
 
 use crate::integrator::{Deposit, TraceSettings};
-use crate::render::{element_blocks, in_pool, sample_grid, settings, trace_block, RenderOptions};
+use crate::render::{
+    element_blocks, horizon, in_pool, sample_grid, settings, trace_block_within, RenderOptions,
+};
 use crate::scene::{Scene, SceneError, SceneT};
 use rayon::prelude::*;
 use usray_ad::{Dual, Real, Recording, Var};
@@ -143,13 +146,7 @@ pub fn channel_gradient(
         };
         (main, pulse)
     };
-    let adj = Adjoint {
-        g: &g_main,
-        g_pulse: &g_pulse,
-        n_samples,
-        t0,
-        fs,
-    };
+    let adj = Adjoint::new(g_main, &g_pulse, n_samples, t0, fs);
     let s = settings(scene, opts);
     let mut grad = vec![0.0; params.len()];
     if params.len() >= REVERSE_MIN_PARAMS {
@@ -173,18 +170,52 @@ pub fn channel_gradient(
 }
 
 /// The adjoint records and the sample grid.
-struct Adjoint<'a> {
-    /// `G = g ⋆ s`, channel layout.
-    g: &'a [f64],
+struct Adjoint {
+    /// Per sample of the channel layout, `stride` values: `G = g ⋆ s`, then
     /// `[g ⋆ ∂s/∂f_c, g ⋆ ∂s/∂cycles]` when a pulse-shape parameter is asked
-    /// for (else empty).
-    g_pulse: &'a [Vec<f64>],
+    /// for. Interleaved so that the look-ups of one deposit share cache lines
+    /// (the records a path deposits into are megabytes apart).
+    g: Vec<f64>,
+    /// Values per sample in `g`: 1, or 3 with the pulse terms.
+    stride: usize,
     n_samples: usize,
     t0: f64,
     fs: f64,
 }
 
-impl Adjoint<'_> {
+/// A deposit awaiting its adjoint weights: offset of its record in channel
+/// layout, its amplitude and time values, and the derivative carrier `P`.
+type Pending<P> = (usize, f64, f64, P);
+
+impl Adjoint {
+    /// Interleave `G` (`main`) with the pulse-term records `pulse` (all in
+    /// channel layout).
+    fn new(main: Vec<f64>, pulse: &[Vec<f64>], n_samples: usize, t0: f64, fs: f64) -> Self {
+        let stride = 1 + pulse.len();
+        let g = if pulse.is_empty() {
+            main
+        } else {
+            let mut g = Vec::with_capacity(main.len() * stride);
+            for (k, &m) in main.iter().enumerate() {
+                g.push(m);
+                g.extend(pulse.iter().map(|p| p[k]));
+            }
+            g
+        };
+        Self {
+            g,
+            stride,
+            n_samples,
+            t0,
+            fs,
+        }
+    }
+
+    /// Number of pulse terms (the length of a `pulse_acc`).
+    fn n_pulse(&self) -> usize {
+        self.stride - 1
+    }
+
     /// For a deposit of value `a` at time value `tau` on record `rec` (offset of
     /// the record in channel layout): `(ā, τ̄)` and the pulse terms
     /// `a·interp(G'_m)(τ)` added into `pulse_acc`. `None` when the splat drops it.
@@ -201,20 +232,42 @@ impl Adjoint<'_> {
         if i >= n {
             return None;
         }
-        let at = |g: &[f64], k: f64| -> f64 {
+        // Value `m` of sample `k` of the record (0 outside it).
+        let at = |m: usize, k: f64| -> f64 {
             if k >= 0.0 && k < n {
-                g[rec + k as usize]
+                self.g[(rec + k as usize) * self.stride + m]
             } else {
                 0.0
             }
         };
-        let (g0, g1) = (at(self.g, i), at(self.g, i + 1.0));
-        for (acc, gp) in pulse_acc.iter_mut().zip(self.g_pulse) {
-            *acc += a * ((1.0 - f) * at(gp, i) + f * at(gp, i + 1.0));
+        let (g0, g1) = (at(0, i), at(0, i + 1.0));
+        for (m, acc) in pulse_acc.iter_mut().enumerate() {
+            *acc += a * ((1.0 - f) * at(m + 1, i) + f * at(m + 1, i + 1.0));
         }
         Some(((1.0 - f) * g0 + f * g1, a * self.fs * (g1 - g0)))
     }
+
+    /// Look up the weights of the `pending` deposits, in order, and hand each
+    /// kept deposit's carrier and `(ā, τ̄)` to `use_weights`; `pending` is
+    /// emptied. Done in a batch after the deposits were made rather than one
+    /// by one inside the tracer, so that the independent look-ups (cache misses
+    /// in records megabytes apart) overlap each other.
+    fn settle<P>(
+        &self,
+        pending: &mut Vec<Pending<P>>,
+        pulse_acc: &mut [f64],
+        mut use_weights: impl FnMut(P, f64, f64),
+    ) {
+        for (rec, a, tau, carrier) in pending.drain(..) {
+            if let Some((ab, tb)) = self.weights(rec, a, tau, pulse_acc) {
+                use_weights(carrier, ab, tb);
+            }
+        }
+    }
 }
+
+/// Deposits buffered by a forward pass before [`Adjoint::settle`].
+const SETTLE_BATCH: usize = 64;
 
 /// Offset of record `(tx, e)` in channel layout.
 #[inline]
@@ -249,7 +302,7 @@ fn chunks(n_tx: usize, n_el: usize) -> Vec<(usize, std::ops::Range<usize>)> {
 fn dual_pass<const N: usize>(
     scene: &Scene,
     group: &[&str],
-    adj: &Adjoint<'_>,
+    adj: &Adjoint,
     s: &TraceSettings,
     opts: &RenderOptions,
     out: &mut [f64],
@@ -261,27 +314,39 @@ fn dual_pass<const N: usize>(
         })?;
     let n_el = st.n_elements;
     let work = chunks(st.angles.len(), n_el);
+    // Deposits past the records' end have no weight (`Adjoint::weights`): not traced.
+    let window = horizon(scene, &st);
     let parts: Vec<([f64; N], Vec<f64>)> = in_pool(opts.threads, || {
         work.par_iter()
             .map(|(tx, els)| {
                 let mut acc = [0.0; N];
-                let mut pulse_acc = vec![0.0; adj.g_pulse.len()];
-                trace_block(&st, s, *tx, els.clone(), |d: Deposit<Dual<N>>| {
+                let mut pulse_acc = vec![0.0; adj.n_pulse()];
+                let mut pending = Vec::with_capacity(SETTLE_BATCH);
+                // `ā·∂a + τ̄·∂τ` of a deposit, in deposit order.
+                let mut add = |(da, dt): ([f64; N], [f64; N]), ab: f64, tb: f64| {
+                    for j in 0..N {
+                        acc[j] += ab * da[j] + tb * dt[j];
+                    }
+                };
+                trace_block_within(&st, s, *tx, els.clone(), window, |d: Deposit<Dual<N>>| {
                     let rec = record_offset(*tx, d.element, n_el, adj.n_samples);
-                    if let Some((ab, tb)) =
-                        adj.weights(rec, d.amplitude.re, d.time.re, &mut pulse_acc)
-                    {
-                        for j in 0..N {
-                            acc[j] += ab * d.amplitude.eps[j] + tb * d.time.eps[j];
-                        }
+                    pending.push((
+                        rec,
+                        d.amplitude.re,
+                        d.time.re,
+                        (d.amplitude.eps, d.time.eps),
+                    ));
+                    if pending.len() == SETTLE_BATCH {
+                        adj.settle(&mut pending, &mut pulse_acc, &mut add);
                     }
                 });
+                adj.settle(&mut pending, &mut pulse_acc, &mut add);
                 (acc, pulse_acc)
             })
             .collect()
     });
     // Fixed-order reduction over chunks.
-    let mut pulse_total = vec![0.0; adj.g_pulse.len()];
+    let mut pulse_total = vec![0.0; adj.n_pulse()];
     for (acc, p) in parts {
         for (o, a) in out.iter_mut().zip(acc) {
             *o += a;
@@ -298,7 +363,7 @@ fn dual_pass<const N: usize>(
 fn reverse_pass(
     scene: &Scene,
     params: &[&str],
-    adj: &Adjoint<'_>,
+    adj: &Adjoint,
     s: &TraceSettings,
     opts: &RenderOptions,
     out: &mut [f64],
@@ -318,45 +383,49 @@ fn reverse_pass(
         work.par_iter()
             .map(|(tx, els)| {
                 let mut acc = vec![0.0; np];
-                let mut pulse_acc = vec![0.0; adj.g_pulse.len()];
+                let mut pulse_acc = vec![0.0; adj.n_pulse()];
                 let mut vars = vec![Var::constant(0.0); np];
                 let (mut ys, mut ws): (Vec<Var>, Vec<f64>) = (Vec::new(), Vec::new());
+                let mut pending = Vec::new();
+                // The inputs and the scene lifted onto them are recorded once per
+                // chunk and frozen; each path rewinds the tape to that point.
                 let mut rec = Recording::start();
+                rec.inputs_into(&theta, &mut vars);
+                let Ok(st) = scene.lift_with(Some(&meshes), |path, v| {
+                    match params.iter().position(|q| *q == path) {
+                        Some(i) => vars[i],
+                        None => Var::constant(v),
+                    }
+                }) else {
+                    return (acc, pulse_acc); // checked above; cannot fail
+                };
+                rec.freeze();
+                // Deposits past the records' end have no weight: not traced.
+                let window = horizon(scene, &st);
                 for el in els.clone() {
+                    let stack = crate::integrator::element_stack(&st, el);
                     for ray in 0..s.rays_per_element {
-                        rec.restart();
-                        rec.inputs_into(&theta, &mut vars);
-                        let Ok(st) = scene.lift_with(Some(&meshes), |path, v| {
-                            match params.iter().position(|q| *q == path) {
-                                Some(i) => vars[i],
-                                None => Var::constant(v),
-                            }
-                        }) else {
-                            continue; // checked above; cannot fail
-                        };
-                        ys.clear();
-                        ws.clear();
-                        let stack = crate::integrator::element_stack(&st, el);
-                        crate::integrator::trace_path_from(
+                        rec.rewind();
+                        crate::integrator::trace_path_within(
                             &st,
                             s,
                             *tx,
                             el,
                             ray as u32,
                             stack,
+                            window,
                             |d: Deposit<Var>| {
                                 let r = record_offset(*tx, d.element, n_el, adj.n_samples);
-                                if let Some((ab, tb)) = adj.weights(
-                                    r,
-                                    d.amplitude.value(),
-                                    d.time.value(),
-                                    &mut pulse_acc,
-                                ) {
-                                    ys.extend([d.amplitude, d.time]);
-                                    ws.extend([ab, tb]);
-                                }
+                                let (a, tau) = (d.amplitude, d.time);
+                                pending.push((r, a.value(), tau.value(), (a, tau)));
                             },
                         );
+                        ys.clear();
+                        ws.clear();
+                        adj.settle(&mut pending, &mut pulse_acc, |(a, tau), ab, tb| {
+                            ys.extend([a, tau]);
+                            ws.extend([ab, tb]);
+                        });
                         if !ys.is_empty() {
                             rec.vjp(&ys, &ws, &mut acc);
                         }
@@ -367,7 +436,7 @@ fn reverse_pass(
             })
             .collect()
     });
-    let mut pulse_total = vec![0.0; adj.g_pulse.len()];
+    let mut pulse_total = vec![0.0; adj.n_pulse()];
     for (acc, p) in parts {
         for (o, a) in out.iter_mut().zip(acc) {
             *o += a;

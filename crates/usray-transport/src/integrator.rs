@@ -194,6 +194,57 @@ struct Link<T> {
     r: T,
 }
 
+/// The values of a receiver connection's line that passed the checks of
+/// `PathCtx::aim`.
+#[derive(Clone, Copy)]
+struct Aim {
+    /// Receiving element.
+    e: usize,
+    /// Unit direction towards the element's centre (values).
+    wo: Vec3<f64>,
+}
+
+/// The unit direction from `p` to element `e`'s centre and the distance, in any
+/// number type (`PathCtx::aim` in values, `PathCtx::link` in `T`).
+#[inline]
+fn line<U: Real>(pitch: U, n_elements: usize, p: Vec3<U>, e: usize) -> (Vec3<U>, U) {
+    let target = Vec3::new(element_x(pitch, n_elements, e), U::zero(), U::zero());
+    let v = target - p;
+    let r = v.length();
+    (v * r.recip(), r)
+}
+
+/// The end of the recorded time window: deposits arriving at `τ ≥ end` are
+/// dropped by the caller (past the last sample of a record), so a trace may
+/// skip what can only deposit that late (`PathCtx::late`). The renderer and the
+/// gradient replay set it; the public per-path functions do not (they report
+/// every deposit).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Horizon {
+    /// Time (s) from which deposits are dropped.
+    end: f64,
+    /// The largest sound speed of the scene's media (m/s): no path or
+    /// connection covers a distance `d` in less than `d / c_max`.
+    c_max: f64,
+}
+
+impl Horizon {
+    /// The window of records of `n_samples` samples from `t0` at `fs` for the
+    /// media of `st`, or `None` when it cannot be bounded (no finite positive
+    /// sound speed). The end is pushed out by a relative 10⁻⁹ so that rounding
+    /// of the traced times (≈ 10⁻¹⁵ relative) can never skip a deposit that
+    /// would land in the record.
+    pub(crate) fn of<T: Real>(st: &SceneT<T>, n_samples: usize, t0: f64, fs: f64) -> Option<Self> {
+        let c_max = st
+            .objects
+            .iter()
+            .map(|o| o.material.sound_speed.value())
+            .fold(st.medium.sound_speed.value(), f64::max);
+        let end = t0 + n_samples as f64 / fs * (1.0 + 1e-9);
+        (c_max.is_finite() && c_max > 0.0 && end.is_finite()).then_some(Self { end, c_max })
+    }
+}
+
 /// State shared by the steps of one path.
 struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     st: &'a SceneT<T>,
@@ -201,6 +252,8 @@ struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     norm: T,
     /// The elements' receive directivity.
     lobe: ReceiveLobe<T>,
+    /// Deposits from this time on are dropped by the caller (`None`: keep all).
+    horizon: Option<Horizon>,
     counters: TraceCounters,
     out: F,
     cast: C,
@@ -232,22 +285,36 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         });
     }
 
-    /// The straight line from `p` to element `e`'s centre, or `None` when no
-    /// connection can be made (closer than [`T_MIN`], or beyond the element's
-    /// receive cutoff, where its directivity is 0).
-    fn link(&self, p: Vec3<T>, e: usize) -> Option<Link<T>> {
+    /// True when every deposit a path at `time` (s) can still make after
+    /// covering at least `dist` metres arrives after the horizon, i.e. would be
+    /// dropped: that takes at least `dist / c_max` (shortened by a relative 10⁻⁹
+    /// for rounding, see [`Horizon::of`]).
+    #[inline]
+    fn late(&self, time: f64, dist: f64) -> bool {
+        self.horizon
+            .is_some_and(|h| time + dist / h.c_max * (1.0 - 1e-9) >= h.end)
+    }
+
+    /// The line from `p` to element `e`'s centre in values (the values of
+    /// [`PathCtx::link`]'s, bit for bit), or `None` when no connection is made:
+    /// closer than [`T_MIN`], beyond the element's receive cutoff (where its
+    /// directivity is 0), or certainly arriving after the horizon from `time`.
+    /// Checked before any `T` arithmetic, which rejected connections then skip.
+    #[inline]
+    fn aim(&self, p: Vec3<f64>, e: usize, time: f64) -> Option<Aim> {
         let st = self.st;
-        let target = Vec3::new(element_x(st.pitch, st.n_elements, e), T::zero(), T::zero());
-        let v = target - p;
-        let r = v.length();
-        if r.value() <= T_MIN {
+        let (wo, r) = line(st.pitch.value(), st.n_elements, p, e);
+        if r <= T_MIN || !self.lobe.may_receive(-wo.z) || self.late(time, r) {
             return None;
         }
-        let wo = v * r.recip();
-        if !self.lobe.may_receive(-wo.z.value()) {
-            return None;
-        }
-        Some(Link { e, wo, r })
+        Some(Aim { e, wo })
+    }
+
+    /// The straight line from `p` to the element of `aim` in `T`.
+    #[inline]
+    fn link(&self, p: Vec3<T>, aim: &Aim) -> Link<T> {
+        let (wo, r) = line(self.st.pitch, self.st.n_elements, p, aim.e);
+        Link { e: aim.e, wo, r }
     }
 
     /// Receiver connection from `p` along `link` (medium stack `stack` on the
@@ -375,7 +442,8 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
             for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {
-                if let Some(link) = self.link(q, e) {
+                if let Some(aim) = self.aim(q.to_f64(), e, t_q.value()) {
+                    let link = self.link(q, &aim);
                     self.connect(q, stack, a_q, f, t_q, &link, sel_w, T::zero());
                 }
             }
@@ -460,11 +528,57 @@ pub fn trace_path_casts<T: Real>(
     out: impl FnMut(Deposit<T>),
     cast: impl FnMut(&Ray<T>, f64, f64),
 ) -> TraceCounters {
+    trace(st, settings, tx, el, ray, start_stack, None, out, cast)
+}
+
+/// [`trace_path_from`] for a caller that drops every deposit arriving from
+/// `horizon` on (the renderer and the gradient replay: past the records' last
+/// sample): the work that can only produce such deposits is skipped (branches
+/// and connections that certainly arrive later, see `PathCtx::late`); the
+/// deposits that arrive earlier are the same, bit for bit.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn trace_path_within<T: Real>(
+    st: &SceneT<T>,
+    settings: &TraceSettings,
+    tx: usize,
+    el: usize,
+    ray: u32,
+    start_stack: MediumStack,
+    horizon: Option<Horizon>,
+    out: impl FnMut(Deposit<T>),
+) -> TraceCounters {
+    trace(
+        st,
+        settings,
+        tx,
+        el,
+        ray,
+        start_stack,
+        horizon,
+        out,
+        |_, _, _| {},
+    )
+}
+
+/// The path loop behind [`trace_path_casts`] and [`trace_path_within`].
+#[allow(clippy::too_many_arguments)]
+fn trace<T: Real>(
+    st: &SceneT<T>,
+    settings: &TraceSettings,
+    tx: usize,
+    el: usize,
+    ray: u32,
+    start_stack: MediumStack,
+    horizon: Option<Horizon>,
+    out: impl FnMut(Deposit<T>),
+    cast: impl FnMut(&Ray<T>, f64, f64),
+) -> TraceCounters {
     let mut ctx = PathCtx {
         st,
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
         lobe: ReceiveLobe::new(st.main_lobe, st.cutoff),
+        horizon,
         counters: TraceCounters::default(),
         out,
         cast,
@@ -611,6 +725,12 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         if bounce > settings.max_bounces {
             return;
         }
+        // Whatever this vertex and its continuations deposit still has to reach
+        // the array plane z = 0, at least the vertex's depth away: past the
+        // horizon, none of it would be kept.
+        if self.late(time.value(), hit.point.z.value().abs()) {
+            return;
+        }
 
         // Step 5: the interface between the current medium and the other side.
         let entering = hit.entering(&dir);
@@ -636,17 +756,19 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         // Step 5a: receiver connection from a rough interface.
         if let Some(inc) = &incident {
             let ue = sampler.uniform(bounce, dim::ELEMENT);
+            let (p_v, n_v, time_v) = (hit.point.to_f64(), n_inc.to_f64(), time.value());
             for (e, sel_w) in settings.receivers(n_el, ue) {
-                let Some(link) = self.link(hit.point, e) else {
+                let Some(aim) = self.aim(p_v, e, time_v) else {
                     continue;
                 };
-                let transmitted = link.wo.dot(n_inc).value() < 0.0;
+                let transmitted = aim.wo.dot(n_v) < 0.0;
                 if rough_vertices > 0 && transmitted {
                     // Transmission-side arrival after an earlier rough vertex:
                     // already counted by that vertex's connection through this
                     // boundary (module docs, "Double counting").
                     continue;
                 }
+                let link = self.link(hit.point, &aim);
                 let (f_cos, p_b) = inc.eval_pdf(link.wo);
                 if f_cos.value() != 0.0 {
                     // The connection leaves into the incident medium (reflection)

@@ -17,7 +17,10 @@
 //! record length) and `4√σ` the pulse half-support. Echoes from steered transmits
 //! that arrive before `t = 0` (near-field, negative `x·sin θ`) are cut.
 
-use crate::integrator::{element_stack, trace_path_from, Deposit, TraceCounters, TraceSettings};
+use crate::integrator::{
+    element_stack, trace_path_from, trace_path_within, Deposit, Horizon, TraceCounters,
+    TraceSettings,
+};
 use crate::scene::{Scene, SceneError, SceneT};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -162,13 +165,33 @@ pub fn trace_block<T: Real>(
     s: &TraceSettings,
     tx: usize,
     els: std::ops::Range<usize>,
+    out: impl FnMut(Deposit<T>),
+) -> TraceCounters {
+    trace_block_within(st, s, tx, els, None, out)
+}
+
+/// The time window of the records of `scene` for the tracer (see
+/// [`Horizon`]): deposits later than the last sample are dropped.
+pub(crate) fn horizon<T: Real>(scene: &Scene, st: &SceneT<T>) -> Option<Horizon> {
+    let (n_samples, t0) = sample_grid(scene);
+    Horizon::of(st, n_samples, t0, scene.acquisition.sampling_frequency_hz)
+}
+
+/// [`trace_block`] for a caller that drops the deposits arriving from `horizon`
+/// on (they are not traced; the others are the same).
+pub(crate) fn trace_block_within<T: Real>(
+    st: &SceneT<T>,
+    s: &TraceSettings,
+    tx: usize,
+    els: std::ops::Range<usize>,
+    horizon: Option<Horizon>,
     mut out: impl FnMut(Deposit<T>),
 ) -> TraceCounters {
     let mut cnt = TraceCounters::default();
     for el in els {
         let stack = element_stack(st, el);
         for ray in 0..s.rays_per_element {
-            let k = trace_path_from(st, s, tx, el, ray as u32, stack, &mut out);
+            let k = trace_path_within(st, s, tx, el, ray as u32, stack, horizon, &mut out);
             cnt.rays += k.rays;
             cnt.deposits += k.deposits;
         }
@@ -193,6 +216,8 @@ pub fn render_lifted<T: Real>(
     let fs = st.fs;
     let rec_len = n_el * n_samples;
     let blocks = element_blocks(n_el);
+    // The splat drops deposits past the records' end: they are not traced.
+    let window = horizon(scene, st);
     let taps = (!opts.impulse_only).then(|| {
         usray_signal::pulse::pulse_taps(fs, scene.probe.center_frequency_hz, scene.probe.cycles)
     });
@@ -205,7 +230,7 @@ pub fn render_lifted<T: Real>(
                 .par_iter()
                 .map(|els| {
                     let mut buf = vec![T::zero(); rec_len];
-                    let cnt = trace_block(st, &s, tx, els.clone(), |d| {
+                    let cnt = trace_block_within(st, &s, tx, els.clone(), window, |d| {
                         let e = d.element as usize;
                         let rec = &mut buf[e * n_samples..(e + 1) * n_samples];
                         crate::deposit::splat(rec, t0, fs, d.time, d.amplitude);
