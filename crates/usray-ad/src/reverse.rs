@@ -789,8 +789,9 @@ impl Real for Var {
 /// borrowed directly (no closure): the thread-local access is then a
 /// thread-pointer load in every operation. Left to the compiler, this function
 /// (or a closure around the tape access) stayed out of line in much of the
-/// transport's code, a call per recorded node; `cargo bench -p usray-transport
-/// --bench gradient` measured the reverse replay ≈ 10% slower that way.
+/// transport's code, a call per recorded node: the 16-parameter replay of the
+/// transport's `gradient_cost` example was 4–10% slower with those placements
+/// (`docs/performance.md`).
 ///
 /// Both `a` and `b` carry derivatives (non-zero index); their scales are folded
 /// into the partials. When both point at the same node nothing is appended

@@ -112,22 +112,11 @@ pub fn channel_gradient(
     let (fc, cycles) = (scene.probe.center_frequency_hz, scene.probe.cycles);
     // Step 1: G = g ⋆ s, and g ⋆ ∂s/∂f_c, g ⋆ ∂s/∂cycles when either is asked for.
     let want_pulse = params.iter().any(|p| *p == FC || *p == CYCLES);
-    let corr = |t: &[f64]| -> Vec<f64> {
-        let mut out = vec![0.0; d_channels.len()];
-        in_pool(opts.threads, || {
-            out.par_chunks_mut(n_samples)
-                .zip(d_channels.par_chunks(n_samples))
-                .for_each(|(x, y)| usray_signal::pulse::convolve_vjp(y, t, x));
-        });
-        out
-    };
-    let (g_main, g_pulse): (Vec<f64>, Vec<Vec<f64>>) = if opts.impulse_only {
-        (d_channels.to_vec(), Vec::new())
-    } else {
+    let taps = (!opts.impulse_only).then(|| {
         let taps = usray_signal::pulse::pulse_taps(fs, fc, cycles);
-        let main = corr(&taps);
-        let pulse = if want_pulse {
-            let k = (taps.len() / 2) as i64;
+        let mut all = vec![taps];
+        if want_pulse {
+            let k = (all[0].len() / 2) as i64;
             let dtaps: Vec<[f64; 2]> = (-k..=k)
                 .map(|i| {
                     usray_signal::pulse::pulse(
@@ -138,15 +127,11 @@ pub fn channel_gradient(
                     .eps
                 })
                 .collect();
-            (0..2)
-                .map(|m| corr(&dtaps.iter().map(|d| d[m]).collect::<Vec<_>>()))
-                .collect()
-        } else {
-            Vec::new()
-        };
-        (main, pulse)
-    };
-    let adj = Adjoint::new(g_main, &g_pulse, n_samples, t0, fs);
+            all.extend((0..2).map(|m| dtaps.iter().map(|d| d[m]).collect::<Vec<_>>()));
+        }
+        all
+    });
+    let adj = Adjoint::new(d_channels, taps.as_deref(), opts.threads, n_samples, t0, fs);
     let s = settings(scene, opts);
     let mut grad = vec![0.0; params.len()];
     if params.len() >= REVERSE_MIN_PARAMS {
@@ -188,19 +173,43 @@ struct Adjoint {
 type Pending<P> = (usize, f64, f64, P);
 
 impl Adjoint {
-    /// Interleave `G` (`main`) with the pulse-term records `pulse` (all in
-    /// channel layout).
-    fn new(main: Vec<f64>, pulse: &[Vec<f64>], n_samples: usize, t0: f64, fs: f64) -> Self {
-        let stride = 1 + pulse.len();
-        let g = if pulse.is_empty() {
-            main
-        } else {
-            let mut g = Vec::with_capacity(main.len() * stride);
-            for (k, &m) in main.iter().enumerate() {
-                g.push(m);
-                g.extend(pulse.iter().map(|p| p[k]));
+    /// The records `g ⋆ t` of `d_channels = g` for each `t` of `taps` (the
+    /// pulse first, then the pulse-term derivative taps if any), interleaved
+    /// per sample, computed record by record on `threads` (no full-size
+    /// intermediate); `None` (impulse-only data): `G = g`.
+    fn new(
+        d_channels: &[f64],
+        taps: Option<&[Vec<f64>]>,
+        threads: Option<usize>,
+        n_samples: usize,
+        t0: f64,
+        fs: f64,
+    ) -> Self {
+        let (g, stride) = match taps {
+            None => (d_channels.to_vec(), 1),
+            Some(taps) => {
+                let stride = taps.len();
+                let mut g = vec![0.0; d_channels.len() * stride];
+                in_pool(threads, || {
+                    g.par_chunks_mut(n_samples * stride)
+                        .zip(d_channels.par_chunks(n_samples))
+                        .for_each_init(
+                            || vec![0.0; n_samples],
+                            |x, (out, y)| {
+                                // Each correlation of the record, then its values
+                                // into every `stride`-th slot.
+                                for (m, t) in taps.iter().enumerate() {
+                                    usray_signal::pulse::convolve_vjp(y, t, x);
+                                    for (o, &v) in out[m..].iter_mut().step_by(stride).zip(x.iter())
+                                    {
+                                        *o = v;
+                                    }
+                                }
+                            },
+                        );
+                });
+                (g, stride)
             }
-            g
         };
         Self {
             g,

@@ -226,6 +226,10 @@ pub(crate) struct Horizon {
     /// The largest sound speed of the scene's media (m/s): no path or
     /// connection covers a distance `d` in less than `d / c_max`.
     c_max: f64,
+    /// How much earlier (s) than that bound a deposit through a volume
+    /// scatterer can arrive (0 without volume scattering): see
+    /// `PathCtx::vertex_late`.
+    volume_slack: f64,
 }
 
 impl Horizon {
@@ -235,13 +239,29 @@ impl Horizon {
     /// of the traced times (≈ 10⁻¹⁵ relative) can never skip a deposit that
     /// would land in the record.
     pub(crate) fn of<T: Real>(st: &SceneT<T>, n_samples: usize, t0: f64, fs: f64) -> Option<Self> {
-        let c_max = st
+        let speeds = || {
+            std::iter::once(&st.medium)
+                .chain(st.objects.iter().map(|o| &o.material))
+                .map(|m| m.sound_speed.value())
+        };
+        let c_max = speeds().fold(f64::NEG_INFINITY, f64::max);
+        let c_min = speeds().fold(f64::INFINITY, f64::min);
+        // A volume scatterer lies in the cell of the point on the ray that
+        // selected it: at most `δ = √3·h` (the cell's diagonal) from it.
+        let delta = st
             .objects
             .iter()
-            .map(|o| o.material.sound_speed.value())
-            .fold(st.medium.sound_speed.value(), f64::max);
+            .filter_map(|o| ScattererField::new(0, o.material.scatterer_density_per_mm3.value()))
+            .map(|f| 3f64.sqrt() * f.cell_m)
+            .fold(0.0, f64::max);
+        let volume_slack = 2.0 * delta / c_max + delta / c_min;
         let end = t0 + n_samples as f64 / fs * (1.0 + 1e-9);
-        (c_max.is_finite() && c_max > 0.0 && end.is_finite()).then_some(Self { end, c_max })
+        let ok = c_min > 0.0 && c_max.is_finite() && volume_slack.is_finite() && end.is_finite();
+        ok.then_some(Self {
+            end,
+            c_max,
+            volume_slack,
+        })
     }
 }
 
@@ -293,6 +313,19 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     fn late(&self, time: f64, dist: f64) -> bool {
         self.horizon
             .is_some_and(|h| time + dist / h.c_max * (1.0 - 1e-9) >= h.end)
+    }
+
+    /// True when nothing a vertex at `time` and `depth` (m) and its
+    /// continuations can deposit arrives before the horizon. Its connections
+    /// and everything after it travel at least `depth` back to the array plane
+    /// (triangle inequality), except deposits through a volume scatterer, which
+    /// sits up to `δ` off the ray that selected it: with `c_min` the smallest
+    /// speed, such a deposit arrives no earlier than
+    /// `time + (depth − 2δ)/c_max − δ/c_min` (`Horizon::volume_slack`).
+    #[inline]
+    fn vertex_late(&self, time: f64, depth: f64) -> bool {
+        self.horizon
+            .is_some_and(|h| self.late(time - h.volume_slack, depth))
     }
 
     /// The line from `p` to element `e`'s centre in values (the values of
@@ -728,7 +761,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         // Whatever this vertex and its continuations deposit still has to reach
         // the array plane z = 0, at least the vertex's depth away: past the
         // horizon, none of it would be kept.
-        if self.late(time.value(), hit.point.z.value().abs()) {
+        if self.vertex_late(time.value(), hit.point.z.value().abs()) {
             return;
         }
 
