@@ -603,7 +603,7 @@ fn valve_leaflets_are_closed_disjoint_shells() {
 
 #[test]
 fn shipped_valve_objs_match_the_generator() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/meshes");
+    let dir = usray_testdata::workspace_file("scenes/meshes");
     for (name, closure) in usray_geometry::valve::SCENE_VALVES {
         let path = dir.join(format!("{name}.obj"));
         let loaded = usray_geometry::obj::load_obj(&path).unwrap();

@@ -580,9 +580,11 @@ pub fn diagnose(
         // lowered the loss, else the onset.
         let mut l_step = e.loss;
         let mut start = onset;
-        if step != onset && (cal_eval.loss - predicted) < MIN_CHECKED_REDUCTION * cal_eval.loss {
+        if step == onset {
+            // No step: the onset's loss is the score's.
+        } else if (cal_eval.loss - predicted) < MIN_CHECKED_REDUCTION * cal_eval.loss {
             l_step = predicted;
-        } else if step != onset {
+        } else {
             let mut at = step;
             l_step = obj.value(&[at])?.loss;
             if l_step > e.loss {
@@ -612,8 +614,8 @@ pub fn diagnose(
 
     // Step 4: refit the leading candidates; held-out shrink.
     let t = Instant::now();
-    // (candidate, simulated image after its refit) of each refit.
-    let mut refits: Vec<(usize, Vec<f64>)> = Vec::new();
+    // (candidate, refitted scene) of each refit.
+    let mut refits: Vec<(usize, Scene)> = Vec::new();
     for &k in order.iter().take(opts.confirm_top) {
         let c = &candidates[k];
         progress(&format!("refitting with {}", c.effect));
@@ -662,7 +664,7 @@ pub fn diagnose(
             .map(|(s, v)| (s.path.clone(), *v))
             .chain(c.fixed.iter().cloned())
             .collect();
-        refits.push((k, obj.value(&r.final_params)?.image.data));
+        refits.push((k, fitted));
     }
     timings.refits_s = t.elapsed().as_secs_f64();
 
@@ -683,21 +685,25 @@ pub fn diagnose(
             .map(|&j| effects[refits[j].0].effect.clone())
             .filter(|e| *e != effects[k].effect)
             .collect();
-        (k, alternatives)
+        (i, alternatives)
     });
     let (verdict, after_image) = match named {
-        Some((k, alternatives)) => (
-            Verdict {
-                effect: effects[k].effect.clone(),
-                shrink: effects[k].shrink.unwrap_or(0.0),
-                alternatives,
-            },
-            refits
-                .into_iter()
-                .find(|(j, _)| *j == k)
-                .map(|(_, image)| image)
-                .unwrap_or_default(),
-        ),
+        Some((i, alternatives)) => {
+            let (k, fitted) = refits.swap_remove(i);
+            // The named refit's image on the fit's seed (one render).
+            let image = Objective::new(fitted, measured.to_vec(), vec![], render_s.clone())?
+                .value(&[])?
+                .image
+                .data;
+            (
+                Verdict {
+                    effect: effects[k].effect.clone(),
+                    shrink: effects[k].shrink.unwrap_or(0.0),
+                    alternatives,
+                },
+                image,
+            )
+        }
         _ => {
             let effect = if held.loss <= opts.noise_factor * noise_loss {
                 "none"

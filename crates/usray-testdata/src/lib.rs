@@ -25,15 +25,40 @@ pub fn data_root() -> Option<PathBuf> {
         let dir = PathBuf::from(dir);
         return dir.is_dir().then_some(dir);
     }
+    let dir = workspace_root()?.join("../shared/data");
+    dir.is_dir().then(|| dir.canonicalize().unwrap_or(dir))
+}
+
+/// The workspace root, found **at run time** as the nearest ancestor holding
+/// `Cargo.lock` of `$CARGO_MANIFEST_DIR` (set by `cargo test` for the crate under
+/// test), else of the current directory.
+pub fn workspace_root() -> Option<PathBuf> {
     let start = std::env::var_os("CARGO_MANIFEST_DIR")
         .map(PathBuf::from)
         .or_else(|| std::env::current_dir().ok())?;
-    let workspace = start
+    start
         .ancestors()
-        .find(|d| d.join("Cargo.lock").is_file())?
-        .to_path_buf();
-    let dir = workspace.join("../shared/data");
-    dir.is_dir().then(|| dir.canonicalize().unwrap_or(dir))
+        .find(|d| d.join("Cargo.lock").is_file())
+        .map(PathBuf::from)
+}
+
+/// The path of a file the repository itself ships (e.g. `"scenes/cylinder.toml"`),
+/// found at run time like [`workspace_root`], so a build cache reused from a
+/// checkout at another path still reads this checkout's files.
+///
+/// ```
+/// let scene = usray_testdata::workspace_file("scenes/cylinder.toml");
+/// assert!(scene.is_file());
+/// ```
+///
+/// # Panics
+/// When no workspace root is found (the test runs outside the repository).
+pub fn workspace_file(relative: &str) -> PathBuf {
+    workspace_root()
+        .unwrap_or_else(|| {
+            panic!("no workspace (Cargo.lock) above $CARGO_MANIFEST_DIR or the current directory, looking for `{relative}`")
+        })
+        .join(relative)
 }
 
 /// True when running under CI (`CI` set to `true` or `1`).

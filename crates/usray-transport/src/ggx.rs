@@ -88,6 +88,26 @@ impl<T: Real> Frame<T> {
     }
 }
 
+/// The half vector of a refraction from `wi` (towards the surface, outside) to
+/// `wo` (inside) with inverse speeds `ei`, `eo` (Walter et al. 2007, eq. 16:
+/// `h ∝ −(η_i i + η_o o)`), oriented along the normal `n`, with `i·h` and `o·h`;
+/// `None` unless `i·h > 0 > o·h` (the pair is not a refraction through `h`).
+#[inline]
+fn refraction_half_vector<T: Real>(
+    wi: Vec3<T>,
+    wo: Vec3<T>,
+    n: Vec3<T>,
+    ei: T,
+    eo: T,
+) -> Option<(Vec3<T>, T, T)> {
+    let mut h = -(wi * ei + wo * eo).normalize();
+    if h.dot(n).value() < 0.0 {
+        h = -h;
+    }
+    let (ih, oh) = (wi.dot(h), wo.dot(h));
+    (ih.value() > 0.0 && oh.value() < 0.0).then_some((h, ih, oh))
+}
+
 /// Paper eq. `GGX_PDF`: `D(h)` for `cos θh = n·h` (1/sr).
 pub fn ndf<T: Real>(cos_h: T, alpha: T) -> T {
     if cos_h.value() <= 0.0 {
@@ -273,15 +293,9 @@ impl<T: Real> Interface<T> {
                 / (cos_i * T::from_f64(4.0))
         } else {
             let (ei, eo) = (self.c1.recip(), self.c2.recip());
-            let mut h = -(wi * ei + wo * eo).normalize();
-            if h.dot(n).value() < 0.0 {
-                h = -h;
-            }
-            let ih = wi.dot(h);
-            let oh = wo.dot(h);
-            if ih.value() <= 0.0 || oh.value() >= 0.0 {
+            let Some((h, ih, oh)) = refraction_half_vector(wi, wo, n, ei, eo) else {
                 return T::zero();
-            }
+            };
             let f = fresnel(ih, self.c1, self.c2, self.z1, self.z2);
             if f.tir {
                 return T::zero();
@@ -353,15 +367,9 @@ impl<T: Real> Interface<T> {
             vndf_pdf(wil, frame.to_local(h), self.alpha) / ih.scale(4.0)
         } else {
             let (ei, eo) = (self.c1.recip(), self.c2.recip());
-            let mut h = -(wi * ei + wo * eo).normalize();
-            if h.dot(n).value() < 0.0 {
-                h = -h;
-            }
-            let ih = wi.dot(h);
-            let oh = wo.dot(h);
-            if ih.value() <= 0.0 || oh.value() >= 0.0 {
+            let Some((h, ih, oh)) = refraction_half_vector(wi, wo, n, ei, eo) else {
                 return T::zero();
-            }
+            };
             if fresnel(ih, self.c1, self.c2, self.z1, self.z2).tir {
                 return T::zero();
             }
@@ -424,15 +432,9 @@ impl<T: Real> Incident<T> {
             (fr.r * d_4ci * g2(cos_o), self.g1_i * d_4ci)
         } else {
             let (ei, eo) = self.eta;
-            let mut h = -(wi * ei + wo * eo).normalize();
-            if h.dot(n).value() < 0.0 {
-                h = -h;
-            }
-            let ih = wi.dot(h);
-            let oh = wo.dot(h);
-            if ih.value() <= 0.0 || oh.value() >= 0.0 {
+            let Some((h, ih, oh)) = refraction_half_vector(wi, wo, n, ei, eo) else {
                 return zero;
-            }
+            };
             let fr = fresnel_ratio(ih, self.ratio, f.z1, f.z2);
             if fr.tir {
                 return zero;

@@ -43,7 +43,7 @@ fn surface_through_the_array_plane_is_finite() {
 
 #[test]
 fn degenerate_triangles_are_finite() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let dir = usray_testdata::workspace_file("crates/usray-transport/tests");
     let text = format!(
         "{}\n[materials.m]\nimpedance_mrayl = 1.9\nsound_speed_m_s = 1600.0\nroughness = 0.2\n\n\
          [[objects]]\nname = \"tet\"\nshape = \"mesh\"\npath = \"data/degenerate.obj\"\nmaterial = \"m\"\n",

@@ -36,9 +36,7 @@ seed = 1
 
 /// Path of a file in the workspace `scenes/` directory.
 pub fn scene_path(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../scenes")
-        .join(name)
+    usray_testdata::workspace_file("scenes").join(name)
 }
 
 /// Plane-wave delay-and-sum (test-only, f64): envelope image `[nz][nx]` from the
