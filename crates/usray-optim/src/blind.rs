@@ -15,7 +15,7 @@
 //! | `depth_gain` | `acquisition.depth_gain_db_per_cm` | ±[1, 2] dB/cm |
 //! | `pulse_length` | `probe.cycles` | [1.5, 2] × base |
 //! | `none` | nothing | — |
-//! | `outside` (not in the catalogue) | an unmodelled wire: a 0.3 mm rod of 7 MRayl outside the first cylinder | its depth (m) |
+//! | `outside` (not in the catalogue) | an unmodelled wire: a 0.3 mm rod of 7 MRayl clear of every object | its depth (m) |
 //!
 //! (The scatterer strengths give the speckle power of strengths [0.5, 1.5] in the
 //! model before the event weight of [`usray_transport::effects::ScattererField`]
@@ -172,7 +172,7 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
 /// elevation axis) of radius 0.3 mm and impedance 7 MRayl (a metal-like
 /// reflector, with the first object's roughness so that it echoes back to the
 /// array) at a random place in the image's central 70% × 80%, at least 1.5 mm
-/// clear of the first cylinder. No catalogue effect adds an echo where the base
+/// clear of every object with a radius. No catalogue effect adds an echo where the base
 /// scene has no structure. Returns the wire's depth, metres; `None` when 200
 /// tries find no room.
 fn add_wire(scene: &mut Scene, st: &mut u64) -> Option<f64> {
@@ -183,15 +183,21 @@ fn add_wire(scene: &mut Scene, st: &mut u64) -> Option<f64> {
         .iter()
         .find(|o| o.shape == ShapeKind::Cylinder)?
         .clone();
-    let r_host = host.radius_m?;
     let [x0, x1] = scene.imaging.x_range_m;
     let [z0, z1] = scene.imaging.z_range_m;
     let (xc, zc) = (0.5 * (x0 + x1), 0.5 * (z0 + z1));
+    // Clear of every object with a radius (the first cylinder and any other).
+    let clear = |x: f64, z: f64| {
+        scene.objects.iter().all(|o| {
+            o.radius_m.is_none_or(|r| {
+                (x - o.center_m[0]).hypot(z - o.center_m[2]) > r + WIRE_RADIUS_M + CLEARANCE_M
+            })
+        })
+    };
     let place = (0..200).find_map(|_| {
         let x = xc + 0.7 * (x1 - x0) * (splitmix(st) - 0.5);
         let z = zc + 0.8 * (z1 - z0) * (splitmix(st) - 0.5);
-        let d = (x - host.center_m[0]).hypot(z - host.center_m[2]);
-        (d > r_host + WIRE_RADIUS_M + CLEARANCE_M).then_some((x, z))
+        clear(x, z).then_some((x, z))
     })?;
     let mut material = scene.materials.get(&host.material)?.clone();
     material.impedance_mrayl = 7.0;

@@ -10,8 +10,11 @@
 //! 2. **Where**: [`crate::residual::analyse_residual`] of the calibrated image.
 //! 3. **Which**: every candidate of [`catalogue`] is switched on at its *onset*
 //!    (its null value where the model is smooth there; where the null is a change
-//!    of structure — a wall appearing inside a solid cylinder — the best of a few
-//!    values across the range, by loss alone) and scored from **one value +
+//!    of structure — a wall appearing inside a solid cylinder — or the loss is
+//!    far from quadratic within the range — a sound-speed error moving echoes by
+//!    more than the pulse length — the best of a few values across the range by
+//!    loss alone, refined at half and a quarter of their spacing; see
+//!    [`score_candidate`]) and scored from **one value +
 //!    gradient** of the loss `g = ∂L/∂θ` there, with the Gauss–Newton curvature
 //!    of the ℓ2 term `c = (2λ₂/N) Σ_u J_u²` from one more render
 //!    (`J_u = ∂I_u/∂θ` by a forward difference of 1% of the range):
@@ -89,6 +92,10 @@ pub struct Candidate {
     pub two_sided: bool,
     /// Other scene values set with the switch (e.g. the scatterer density).
     pub fixed: Vec<(String, f64)>,
+    /// Learning rate of the strength in a confirming refit, in fractions of
+    /// [`Candidate::range`] per step ([`EFFECT_LEARNING_RATE`] unless the loss's
+    /// basin is narrower than the range, as for a wall).
+    pub learning_rate: f64,
 }
 
 impl Candidate {
@@ -135,21 +142,34 @@ fn switch_on(s: &mut Scene, path: &str, value: f64) -> Result<(), OptimError> {
 /// Effects the scene already has switched on are not candidates.
 pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
     let mut out = Vec::new();
-    let lambda = scene.medium.sound_speed_m_s / scene.probe.center_frequency_hz;
+    let f_c = scene.probe.center_frequency_hz;
+    let lambda = scene.medium.sound_speed_m_s / f_c;
     for o in &scene.objects {
         if o.shape == ShapeKind::Cylinder && o.thickness_m.is_none() {
-            if let Some(r) = o.radius_m {
+            if let (Some(r), Some(m)) = (o.radius_m, scene.materials.get(&o.material)) {
                 // The null (a solid cylinder) is a change of structure, and a wall
-                // of zero thickness is invisible: scored at the best of three
-                // walls across the radius. Thinnest wall in a refit: a quarter
+                // of zero thickness is invisible: scored at the best of several
+                // walls across the radius. A wall `t` thick puts its inner echo
+                // `2t/c_wall` after the outer one; the loss has a basin about one
+                // echo width wide around the true `t` (pulse envelope FWHM
+                // `cycles/f_c`, `usray_signal::pulse`), so the onsets lie one echo
+                // width `Δt = c_wall·cycles/(2 f_c)` apart, at `(k + ½)Δt`, and a
+                // refit steps a quarter of it. Thinnest wall in a refit: a quarter
                 // wavelength (or an eighth of the radius).
+                let dt = m.sound_speed_m_s * scene.probe.cycles / (2.0 * f_c);
+                let range = (0.25 * lambda.min(0.5 * r), 0.95 * r);
+                let onsets: Vec<f64> = (0..)
+                    .map(|k| (k as f64 + 0.5) * dt)
+                    .take_while(|t| *t < range.1)
+                    .collect();
                 out.push(Candidate {
                     effect: "wall_thickness".into(),
                     path: format!("objects.{}.thickness_m", o.name),
-                    onsets: vec![0.1 * r, 0.25 * r, 0.45 * r],
-                    range: (0.25 * lambda.min(0.5 * r), 0.95 * r),
+                    onsets,
+                    range,
                     two_sided: false,
                     fixed: vec![],
+                    learning_rate: (0.25 * dt / (range.1 - range.0)).min(EFFECT_LEARNING_RATE),
                 });
             }
         }
@@ -162,6 +182,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             range: (0.0, 2.0),
             two_sided: false,
             fixed: vec![],
+            learning_rate: EFFECT_LEARNING_RATE,
         });
     }
     let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
@@ -184,6 +205,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 range: (0.0, 2.0),
                 two_sided: false,
                 fixed: vec![],
+                learning_rate: EFFECT_LEARNING_RATE,
             });
         }
     }
@@ -203,6 +225,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                     format!("materials.{m}.scatterer_density_per_mm3"),
                     SCATTERER_DENSITY_PER_MM3,
                 )],
+                learning_rate: EFFECT_LEARNING_RATE,
             });
         }
     }
@@ -212,14 +235,23 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         .unwrap_or(scene.medium.sound_speed_m_s);
     if (c_img - scene.medium.sound_speed_m_s).abs() < 1e-9 {
         // Switched on by giving the beamformer its own speed, so that the medium's
-        // speed is free to differ from it.
+        // speed is free to differ from it. A speed error of a few percent moves
+        // an echo at depth `d` by `d·Δc/c`, more than the pulse length (3 cycles
+        // at 5 MHz ≈ 0.9 mm, i.e. 3% of 15 mm of two-way path at the depth) for
+        // errors past ≈ 3%: the loss is not quadratic that far from the null, so
+        // the speed is scored from the best of five onsets 2.5% apart (four more
+        // renders), each within the basin of its neighbours.
         out.push(Candidate {
             effect: "sound_speed".into(),
             path: "medium.sound_speed_m_s".into(),
-            onsets: vec![c_img],
+            onsets: [1.0, 0.975, 1.025, 0.95, 1.05]
+                .iter()
+                .map(|f| f * c_img)
+                .collect(),
             range: (0.93 * c_img, 1.07 * c_img),
             two_sided: true,
             fixed: vec![("imaging.sound_speed_m_s".into(), c_img)],
+            learning_rate: EFFECT_LEARNING_RATE,
         });
     }
     // Pulse length (bandwidth): the transmitted pulse's envelope FWHM in cycles
@@ -232,6 +264,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         range: (0.5 * cycles, 3.0 * cycles),
         two_sided: true,
         fixed: vec![],
+        learning_rate: EFFECT_LEARNING_RATE,
     });
     if scene.acquisition.depth_gain_db_per_cm == 0.0 {
         out.push(Candidate {
@@ -241,6 +274,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             range: (-3.0, 3.0),
             two_sided: true,
             fixed: vec![],
+            learning_rate: EFFECT_LEARNING_RATE,
         });
     }
     out
@@ -269,6 +303,169 @@ pub fn default_free_params(scene: &Scene) -> Vec<String> {
         }
     }
     out
+}
+
+/// A candidate's score (module docs, step 3): how much of the calibrated loss it
+/// removes along its own parameter alone, the others held at their calibrated
+/// values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Score {
+    /// `(L_cal − min(L(onset), L(step))) / L_cal`, at least 0: the fraction of
+    /// the calibrated loss removed at the best of the onset and the checked
+    /// Newton step (or the quadratic model's prediction, when it predicts less
+    /// than [`MIN_CHECKED_REDUCTION`]).
+    pub score: f64,
+    /// The onset: the best of [`Candidate::onsets`] by loss, refined.
+    pub onset: f64,
+    /// `∂L/∂θ` at the onset (loss per unit of the parameter).
+    pub gradient: f64,
+    /// The loss at the onset.
+    pub loss_onset: f64,
+    /// Where a confirming refit starts: the best rendered point (the checked
+    /// step when it lowered the loss, else the onset).
+    pub start: f64,
+}
+
+/// Scores candidate `c` against `measured` at the calibrated scene (loss
+/// `calibrated_loss`), rendering with `render` (the calibration's seed): one
+/// value + gradient at the onset (the best of [`Candidate::onsets`] by loss, one
+/// half-ray render each when there are several, refined by four more), one
+/// render for the curvature, and one or two to check the Newton step.
+///
+/// # Errors
+/// A path the scene lacks, or a failing render.
+pub fn score_candidate(
+    c: &Candidate,
+    calibrated: &Scene,
+    measured: &[f64],
+    calibrated_loss: f64,
+    render: &RenderOptions,
+) -> Result<Score, OptimError> {
+    let spec = ParamSpec {
+        path: c.path.clone(),
+        min: c.range.0,
+        max: c.range.1,
+    };
+    let objective_at = |v: f64, render: &RenderOptions| -> Result<Objective, OptimError> {
+        Objective::new(
+            c.switched_on(calibrated, v)?,
+            measured.to_vec(),
+            vec![spec.clone()],
+            render.clone(),
+        )
+    };
+    // The onset: the only one, or the best of a few by loss alone, refined by
+    // trying the points half and a quarter of the onsets' spacing either side of
+    // the best (four more renders): the basin of a wall or of a sound speed is
+    // about one spacing wide and rugged at finer scales (interference of the
+    // wall's two echoes, Monte Carlo noise), where its gradient says little.
+    // The search only compares onsets with one another, so it renders with half
+    // the rays (each onset's loss carries about the same Monte Carlo floor); the
+    // chosen onset is then evaluated at the full count like any other.
+    let mut onset = c.onsets[0];
+    if c.onsets.len() > 1 {
+        let rays = render
+            .rays_per_element
+            .unwrap_or(calibrated.acquisition.rays_per_element);
+        let search = RenderOptions {
+            rays_per_element: Some((rays / 2).max(1)),
+            ..render.clone()
+        };
+        let search_obj = objective_at(onset, &search)?;
+        let mut best = f64::INFINITY;
+        for &v in &c.onsets {
+            let l = search_obj.value(&[v])?.loss;
+            if l < best {
+                (best, onset) = (l, v);
+            }
+        }
+        let mut half = 0.5
+            * c.onsets
+                .iter()
+                .filter(|&&v| v != onset)
+                .map(|v| (v - onset).abs())
+                .fold(f64::INFINITY, f64::min);
+        for _ in 0..2 {
+            let centre = onset;
+            for v in [centre - half, centre + half] {
+                if v > c.range.0 && v < c.range.1 {
+                    let l = search_obj.value(&[v])?.loss;
+                    if l < best {
+                        (best, onset) = (l, v);
+                    }
+                }
+            }
+            half *= 0.5;
+        }
+    }
+    let obj = objective_at(onset, render)?;
+    let e = obj.value_and_gradient(&[onset])?;
+    let g = e.gradient[0];
+    // Gauss–Newton curvature of the ℓ2 term from a forward difference of the
+    // image (into the range).
+    let h = 0.01
+        * (c.range.1 - c.range.0)
+        * if onset + 0.01 * (c.range.1 - c.range.0) > c.range.1 {
+            -1.0
+        } else {
+            1.0
+        };
+    let moved = obj.value(&[onset + h])?;
+    let jj: f64 = moved
+        .image
+        .data
+        .iter()
+        .zip(&e.image.data)
+        .map(|(a, b)| ((a - b) / h).powi(2))
+        .sum();
+    let gauss_newton = 2.0 * obj.loss.lambda2 * jj / e.image.data.len() as f64;
+    // The Gauss–Newton term leaves out the ℓ1 term's curvature (large where
+    // the residual is mostly Monte Carlo noise around zero); the secant of
+    // the same render, `2 (L(θ+h) − L(θ) − g h) / h²`, includes it. The
+    // larger of the two gives the more cautious step.
+    let secant = 2.0 * (moved.loss - e.loss - g * h) / (h * h);
+    let curvature = gauss_newton.max(secant);
+    // The Newton step along the effect, kept in its range, and the loss there
+    // (one more render): the quadratic model overshoots where the image is far
+    // from linear in the parameter (a speckle field appearing), so its
+    // prediction is checked rather than trusted; a step that raises the loss
+    // is halved once (one more render).
+    let step = if curvature > 0.0 {
+        (onset - g / curvature).clamp(c.range.0, c.range.1)
+    } else {
+        onset
+    };
+    // A step the quadratic model itself predicts to cut less than
+    // `MIN_CHECKED_REDUCTION` of the calibrated loss is not worth a render:
+    // such a candidate is scored by the prediction.
+    let predicted = e.loss + g * (step - onset) + 0.5 * curvature * (step - onset).powi(2);
+    // The refit starts from the best *rendered* point: the checked step if it
+    // lowered the loss, else the onset.
+    let mut l_step = e.loss;
+    let mut start = onset;
+    if step == onset {
+        // No step: the onset's loss is the score's.
+    } else if (calibrated_loss - predicted) < MIN_CHECKED_REDUCTION * calibrated_loss {
+        l_step = predicted;
+    } else {
+        let mut at = step;
+        l_step = obj.value(&[at])?.loss;
+        if l_step > e.loss {
+            at = 0.5 * (onset + step);
+            l_step = obj.value(&[at])?.loss;
+        }
+        if l_step < e.loss {
+            start = at;
+        }
+    }
+    let score = (calibrated_loss - e.loss.min(l_step)).max(0.0) / calibrated_loss;
+    Ok(Score {
+        score,
+        onset,
+        gradient: g,
+        loss_onset: e.loss,
+        start,
+    })
 }
 
 /// Settings of a diagnosis.
@@ -329,6 +526,9 @@ pub struct EffectResult {
     pub path: String,
     /// Predicted relative loss reduction (module docs, step 3).
     pub score: f64,
+    /// The onset: the value of the effect parameter where it was scored (the
+    /// best of [`Candidate::onsets`], refined), in its unit.
+    pub onset: f64,
     /// `∂L/∂θ` of the effect parameter at its onset.
     pub gradient: f64,
     /// Loss with the effect at its onset.
@@ -511,98 +711,15 @@ pub fn diagnose(
     let mut starts = Vec::new();
     for c in &candidates {
         progress(&format!("scoring {}", c.effect));
-        let spec = ParamSpec {
-            path: c.path.clone(),
-            min: c.range.0,
-            max: c.range.1,
-        };
-        let objective_at = |v: f64| -> Result<Objective, OptimError> {
-            Objective::new(
-                c.switched_on(&cal_scene, v)?,
-                measured.to_vec(),
-                vec![spec.clone()],
-                render_s.clone(),
-            )
-        };
-        // The onset: the only one, or the best of a few by loss alone.
-        let mut onset = c.onsets[0];
-        if c.onsets.len() > 1 {
-            let mut best = f64::INFINITY;
-            for &v in &c.onsets {
-                let l = objective_at(v)?.value(&[v])?.loss;
-                if l < best {
-                    (best, onset) = (l, v);
-                }
-            }
-        }
-        let obj = objective_at(onset)?;
-        let e = obj.value_and_gradient(&[onset])?;
-        let g = e.gradient[0];
-        // Gauss–Newton curvature of the ℓ2 term from a forward difference of the
-        // image (into the range).
-        let h = 0.01
-            * (c.range.1 - c.range.0)
-            * if onset + 0.01 * (c.range.1 - c.range.0) > c.range.1 {
-                -1.0
-            } else {
-                1.0
-            };
-        let moved = obj.value(&[onset + h])?;
-        let jj: f64 = moved
-            .image
-            .data
-            .iter()
-            .zip(&e.image.data)
-            .map(|(a, b)| ((a - b) / h).powi(2))
-            .sum();
-        let gauss_newton = 2.0 * obj.loss.lambda2 * jj / e.image.data.len() as f64;
-        // The Gauss–Newton term leaves out the ℓ1 term's curvature (large where
-        // the residual is mostly Monte Carlo noise around zero); the secant of
-        // the same render, `2 (L(θ+h) − L(θ) − g h) / h²`, includes it. The
-        // larger of the two gives the more cautious step.
-        let secant = 2.0 * (moved.loss - e.loss - g * h) / (h * h);
-        let curvature = gauss_newton.max(secant);
-        // The Newton step along the effect, kept in its range, and the loss there
-        // (one more render): the quadratic model overshoots where the image is far
-        // from linear in the parameter (a speckle field appearing), so its
-        // prediction is checked rather than trusted; a step that raises the loss
-        // is halved once (one more render).
-        let step = if curvature > 0.0 {
-            (onset - g / curvature).clamp(c.range.0, c.range.1)
-        } else {
-            onset
-        };
-        // A step the quadratic model itself predicts to cut less than
-        // `MIN_CHECKED_REDUCTION` of the calibrated loss is not worth a render:
-        // such a candidate is scored by the prediction.
-        let predicted = e.loss + g * (step - onset) + 0.5 * curvature * (step - onset).powi(2);
-        // The refit starts from the best *rendered* point: the checked step if it
-        // lowered the loss, else the onset.
-        let mut l_step = e.loss;
-        let mut start = onset;
-        if step == onset {
-            // No step: the onset's loss is the score's.
-        } else if (cal_eval.loss - predicted) < MIN_CHECKED_REDUCTION * cal_eval.loss {
-            l_step = predicted;
-        } else {
-            let mut at = step;
-            l_step = obj.value(&[at])?.loss;
-            if l_step > e.loss {
-                at = 0.5 * (onset + step);
-                l_step = obj.value(&[at])?.loss;
-            }
-            if l_step < e.loss {
-                start = at;
-            }
-        }
-        let score = (cal_eval.loss - e.loss.min(l_step)).max(0.0) / cal_eval.loss;
-        starts.push(start);
+        let sc = score_candidate(c, &cal_scene, measured, cal_eval.loss, &render_s)?;
+        starts.push(sc.start);
         effects.push(EffectResult {
             effect: c.effect.clone(),
             path: c.path.clone(),
-            score,
-            gradient: g,
-            loss_onset: e.loss,
+            score: sc.score,
+            onset: sc.onset,
+            gradient: sc.gradient,
+            loss_onset: sc.loss_onset,
             loss_after: None,
             shrink: None,
             params: BTreeMap::new(),
@@ -639,8 +756,8 @@ pub fn diagnose(
             &FitOptions {
                 iters: opts.refit_iters,
                 // The effect's strength may lie anywhere in its range and refits
-                // are short: 5% of its range per step.
-                lr_overrides: vec![(c.path.clone(), EFFECT_LEARNING_RATE)],
+                // are short: 5% of its range per step, less for a narrow basin.
+                lr_overrides: vec![(c.path.clone(), c.learning_rate)],
                 ..opts.fit.clone()
             },
             |_| {},

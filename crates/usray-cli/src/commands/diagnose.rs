@@ -161,10 +161,10 @@ fn report(
         writeln!(r, "- texture, {}: {e:?}", e.region)?;
     }
     writeln!(r, "\n## 3–4. Candidate effects\n")?;
-    writeln!(r, "Score: first-order predicted relative loss reduction from one value + gradient at the effect's onset (`usray_optim::diagnose`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data, for the refitted candidates.\n")?;
+    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data, for the refitted candidates.\n")?;
     writeln!(
         r,
-        "| effect | parameter | score | ∂L/∂θ at onset | loss after | shrink | found |\n|---|---|---|---|---|---|---|"
+        "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | found |\n|---|---|---|---|---|---|---|---|"
     )?;
     for e in &d.effects {
         let found: Vec<String> = e
@@ -174,9 +174,10 @@ fn report(
             .collect();
         writeln!(
             r,
-            "| {} | `{}` | {:.3e} | {:.3e} | {} | {} | {} |",
+            "| {} | `{}` | {:.4e} | {:.3e} | {:.3e} | {} | {} | {} |",
             e.effect,
             e.path,
+            e.onset,
             e.score,
             e.gradient,
             e.loss_after.map_or("—".into(), |v| format!("{v:.4e}")),
