@@ -140,6 +140,23 @@ fn switch_on(s: &mut Scene, path: &str, value: f64) -> Result<(), OptimError> {
 /// medium sound speed different from the beamformer's, a pulse length different
 /// from the scene's (beyond CONTRACT §3's five), and a depth gain.
 /// Effects the scene already has switched on are not candidates.
+///
+/// ```
+/// use usray_optim::catalogue;
+/// let mut scene = usray_transport::Scene::load("../../scenes/cylinder.toml").unwrap();
+/// let wall = |s: &usray_transport::Scene| {
+///     catalogue(s).into_iter().find(|c| c.effect == "wall_thickness").unwrap()
+/// };
+/// // Onsets one echo width c_wall·cycles/(2 f_c) = 0.471 mm apart across the radius.
+/// let w = wall(&scene);
+/// assert_eq!(w.onsets.len(), 10);
+/// assert!((w.onsets[1] - w.onsets[0] - 1570.0 * 3.0 / (2.0 * 5.0e6)).abs() < 1e-12);
+/// // Every onset lies inside the refit's range, even for a wire-thin cylinder.
+/// scene.set("objects.cylinder.radius_m", 0.1e-3).unwrap();
+/// let w = wall(&scene);
+/// assert!(!w.onsets.is_empty());
+/// assert!(w.onsets.iter().all(|t| *t > w.range.0 && *t < w.range.1));
+/// ```
 pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
     let mut out = Vec::new();
     let f_c = scene.probe.center_frequency_hz;
@@ -158,10 +175,14 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 // wavelength (or an eighth of the radius).
                 let dt = m.sound_speed_m_s * scene.probe.cycles / (2.0 * f_c);
                 let range = (0.25 * lambda.min(0.5 * r), 0.95 * r);
-                let onsets: Vec<f64> = (0..)
+                let mut onsets: Vec<f64> = (0..)
                     .map(|k| (k as f64 + 0.5) * dt)
                     .take_while(|t| *t < range.1)
                     .collect();
+                if onsets.is_empty() {
+                    // A cylinder thinner than half an echo width: one onset.
+                    onsets.push(0.5 * (range.0 + range.1));
+                }
                 out.push(Candidate {
                     effect: "wall_thickness".into(),
                     path: format!("objects.{}.thickness_m", o.name),
