@@ -1,6 +1,10 @@
-//! The sim-to-real diagnosis (issue 6) at CI size: the paper's case — a thick ring
-//! diagnosed against a zero-thickness (solid) cylinder — must name
-//! `wall_thickness` and find the wall; and a draw with no effect must not name one.
+//! The sim-to-real diagnosis (issue 6) at CI size, the blind benchmark's draws of
+//! the default master seed on a 32-element cylinder: the paper's case — a thick
+//! ring diagnosed against a zero-thickness (solid) cylinder — must name
+//! `wall_thickness`, find the wall and shrink the radius bias; attenuation, volume
+//! scattering, sound speed and pulse length draws must name their effect; a draw
+//! with no effect must not name one, and an unmodelled wire must be
+//! `unexplained`. The depth gain is not asserted (`docs/diagnosis.md`).
 
 use usray::optim::blind::{
     draw, measured_image, verdict_is_false_effect, BlindOptions, Draw, KINDS,
@@ -192,4 +196,27 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
     );
     assert!(several.score > 0.2, "score {}", several.score);
     assert!(several.score > one.score + 0.05);
+}
+
+/// The CI-size blind benchmark's other catalogue kinds: blind draws 1
+/// (attenuation), 2 (volume scattering), 3 (sound speed) and 5 (pulse length) of
+/// the default master seed must each name their effect. (The depth gain, the
+/// benchmark's weak kind, is measured in `docs/diagnosis.md`, not asserted here.)
+#[test]
+fn blind_draws_of_four_more_kinds_name_their_effect() {
+    for (i, kind) in [(1, KINDS[1]), (2, KINDS[2]), (3, KINDS[3]), (5, KINDS[5])] {
+        let (_, d, r) = diagnose_draw(i, kind);
+        eprintln!(
+            "draw {i} {kind} {:+.3e}: verdict {} (shrink {:.2}), alternatives {:?}; scores {:?}",
+            d.strength,
+            r.verdict.effect,
+            r.verdict.shrink,
+            r.verdict.alternatives,
+            r.effects
+                .iter()
+                .map(|e| (e.effect.as_str(), e.score, e.shrink))
+                .collect::<Vec<_>>()
+        );
+        assert_eq!(r.verdict.effect, kind, "draw {i}");
+    }
 }
