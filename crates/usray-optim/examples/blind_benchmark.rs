@@ -11,6 +11,11 @@
 //! calibration and refits, and prints one line per draw and the summary. `SEED`
 //! (default 2026) is the master seed of the draws: another seed, other draws.
 //! `KIND,...` keeps only the draws of those kinds (e.g. `depth_gain`).
+//!
+//! For each rightly named effect it also prints how far each parameter of the
+//! named refit lies from the truth of the hidden scene, in units of its reported
+//! spread (`params_std`): `z = (found − true) / std`. If the spread told the
+//! whole error, `z` would have a root mean square near 1.
 
 use usray_optim::blind::{
     draw, measured_image, verdict_is_false_effect, verdict_is_right, BlindOptions,
@@ -59,6 +64,8 @@ fn main() {
     let t0 = std::time::Instant::now();
     let mut rows = Vec::new();
     let (mut right_effects, mut n_effects, mut false_effects) = (0, 0, 0);
+    // z-scores of the named refits' parameters: (effect's own, base ones).
+    let (mut z_effect, mut z_base) = (Vec::new(), Vec::new());
     let only: Option<Vec<&str>> = args.get(6).map(|k| k.split(',').collect());
     for i in 0..draws {
         if only.as_ref().is_some_and(|k| {
@@ -83,6 +90,24 @@ fn main() {
             right_effects += usize::from(right);
         }
         false_effects += usize::from(false_effect);
+        let mut z_line = Vec::new();
+        if right {
+            if let Some(e) = r.effects.iter().find(|e| e.effect == r.verdict.effect) {
+                for (p, found) in &e.params {
+                    let (Ok(truth), Some(Some(std))) = (d.scene.get(p), e.params_std.get(p)) else {
+                        continue;
+                    };
+                    let z = (found - truth) / std;
+                    z_line.push(format!("{p} {found:.4e} (true {truth:.4e}) z {z:+.1}"));
+                    if *p == e.path {
+                        &mut z_effect
+                    } else {
+                        &mut z_base
+                    }
+                    .push(z);
+                }
+            }
+        }
         let ranked: Vec<String> = r
             .effects
             .iter()
@@ -106,8 +131,15 @@ fn main() {
             r.noise_loss,
             if right { "right" } else if false_effect { "FALSE EFFECT" } else { "wrong" },
             ranked.join(" "),
-            r.timings.calibration_s + r.timings.scoring_s + r.timings.refits_s + r.timings.held_out_s
+            r.timings.calibration_s
+                + r.timings.scoring_s
+                + r.timings.refits_s
+                + r.timings.held_out_s
+                + r.timings.spread_s
         );
+        if !z_line.is_empty() {
+            println!("         found: {}", z_line.join("; "));
+        }
         rows.push(serde_json::json!({
             "draw": i, "kind": d.kind, "strength": d.strength, "seed": d.seed,
             "verdict": r.verdict.effect, "shrink": r.verdict.shrink, "right": right,
@@ -118,6 +150,17 @@ fn main() {
         "top-1 accuracy on effect draws {right_effects}/{n_effects}; false effects {false_effects}/{}; {:.0} s",
         rows.len(),
         t0.elapsed().as_secs_f64()
+    );
+    let rms = |z: &[f64]| (z.iter().map(|v| v * v).sum::<f64>() / z.len().max(1) as f64).sqrt();
+    let within2 = |z: &[f64]| z.iter().filter(|v| v.abs() <= 2.0).count();
+    let summary = format!(
+        "{summary}; found − true in reported spreads: effect parameter rms z {:.2} ({}/{} within 2), base parameters rms z {:.2} ({}/{} within 2)",
+        rms(&z_effect),
+        within2(&z_effect),
+        z_effect.len(),
+        rms(&z_base),
+        within2(&z_base),
+        z_base.len()
     );
     println!("{summary}");
     if let Some(out) = args.get(4) {

@@ -49,6 +49,7 @@ use crate::fit::{fit, FitOptions};
 use crate::objective::Objective;
 use crate::params::ParamSpec;
 use crate::residual::{analyse_residual, ResidualOptions, ResidualReport};
+use crate::spread::parameter_spread;
 use crate::OptimError;
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -506,6 +507,11 @@ pub struct DiagnoseOptions {
     /// "none" when the held-out calibrated loss is at most this multiple of the
     /// Monte Carlo noise level (default 1.5).
     pub noise_factor: f64,
+    /// Pairs of independent seeds whose image differences give the noise
+    /// realisations of each fit's parameter spread
+    /// ([`crate::parameter_spread`]; default 4, at least 1: the pair `s`,
+    /// `s + 1` is rendered anyway).
+    pub spread_pairs: usize,
     /// Fit settings shared by calibration and refits (iterations overridden).
     pub fit: FitOptions,
     /// Render options of the simulation (rays, seed `s`, threads).
@@ -521,6 +527,7 @@ impl Default for DiagnoseOptions {
             confirm_top: 3,
             min_shrink: 0.2,
             noise_factor: 1.5,
+            spread_pairs: 4,
             fit: FitOptions::default(),
             render: RenderOptions::default(),
         }
@@ -532,6 +539,10 @@ impl Default for DiagnoseOptions {
 pub struct Calibrated {
     /// Fitted free parameters.
     pub params: BTreeMap<String, f64>,
+    /// How well each is determined: its standard deviation under the
+    /// simulation's Monte Carlo noise ([`crate::parameter_spread`]), `None`
+    /// (`null`) when the image does not determine it.
+    pub params_std: BTreeMap<String, Option<f64>>,
     /// Loss at the calibrated parameters, seed `s` (the fit's own data).
     pub loss: f64,
     /// Loss at the calibrated parameters re-rendered with seed `s + 1`.
@@ -560,6 +571,10 @@ pub struct EffectResult {
     pub shrink: Option<f64>,
     /// Parameters found by the refit (effect and base).
     pub params: BTreeMap<String, f64>,
+    /// How well the refit determines each of its parameters (standard
+    /// deviation, as [`Calibrated::params_std`]; the fixed settings of the
+    /// effect are absent).
+    pub params_std: BTreeMap<String, Option<f64>>,
 }
 
 /// The verdict.
@@ -588,6 +603,9 @@ pub struct Timings {
     pub refits_s: f64,
     /// Noise level and held-out evaluation of the calibrated model.
     pub held_out_s: f64,
+    /// How well the calibration and each refit determine their parameters
+    /// (the Jacobian's and the extra seeds' renders).
+    pub spread_s: f64,
 }
 
 /// Everything a diagnosis found (serialised as `diagnosis.json`, CONTRACT §5).
@@ -605,6 +623,8 @@ pub struct Diagnosis {
     /// Monte Carlo noise level: loss between the calibrated model's images for
     /// seeds `s` and `s + 1`.
     pub noise_loss: f64,
+    /// Noise realisations (pairs of seeds) behind each `params_std`.
+    pub spread_pairs: usize,
     /// Where each step's time went.
     pub timings: Timings,
     /// The full residual analysis of the calibrated model (kinds of residual).
@@ -716,6 +736,15 @@ pub fn diagnose(
     .value(&[])?;
     let noise_loss = base.loss.value(&held.image.data, &cal_eval.image.data);
     timings.held_out_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let cal_std = parameter_spread(
+        &base,
+        &cal.final_params,
+        &cal_eval.image.data,
+        &held.image.data,
+        opts.spread_pairs,
+    )?;
+    timings.spread_s += t.elapsed().as_secs_f64();
 
     // Step 2: where.
     let residual = analyse_residual(
@@ -744,6 +773,7 @@ pub fn diagnose(
             loss_after: None,
             shrink: None,
             params: BTreeMap::new(),
+            params_std: BTreeMap::new(),
         });
     }
     timings.scoring_s = t.elapsed().as_secs_f64();
@@ -752,8 +782,9 @@ pub fn diagnose(
 
     // Step 4: refit the leading candidates; held-out shrink.
     let t = Instant::now();
-    // (candidate, refitted scene) of each refit.
-    let mut refits: Vec<(usize, Scene)> = Vec::new();
+    // (candidate, refitted image on the fit's seed) of each refit.
+    let mut refits: Vec<(usize, Vec<f64>)> = Vec::new();
+    let mut refit_spread_s = 0.0;
     for &k in order.iter().take(opts.confirm_top) {
         let c = &candidates[k];
         progress(&format!("refitting with {}", c.effect));
@@ -792,6 +823,16 @@ pub fn diagnose(
         )?
         .value(&[])?;
         let shrink = 1.0 - after.loss / held.loss;
+        let t_spread = Instant::now();
+        let image_s = obj.value(&r.final_params)?.image.data;
+        let std = parameter_spread(
+            &obj,
+            &r.final_params,
+            &image_s,
+            &after.image.data,
+            opts.spread_pairs,
+        )?;
+        refit_spread_s += t_spread.elapsed().as_secs_f64();
         let e = &mut effects[k];
         e.loss_after = Some(after.loss);
         e.shrink = Some(shrink);
@@ -802,9 +843,16 @@ pub fn diagnose(
             .map(|(s, v)| (s.path.clone(), *v))
             .chain(c.fixed.iter().cloned())
             .collect();
-        refits.push((k, fitted));
+        e.params_std = obj
+            .specs
+            .iter()
+            .zip(std)
+            .map(|(s, v)| (s.path.clone(), v))
+            .collect();
+        refits.push((k, image_s));
     }
-    timings.refits_s = t.elapsed().as_secs_f64();
+    timings.refits_s = t.elapsed().as_secs_f64() - refit_spread_s;
+    timings.spread_s += refit_spread_s;
 
     // Step 5: verdict.
     let refitted: Vec<(f64, f64)> = refits
@@ -827,12 +875,7 @@ pub fn diagnose(
     });
     let (verdict, after_image) = match named {
         Some((i, alternatives)) => {
-            let (k, fitted) = refits.swap_remove(i);
-            // The named refit's image on the fit's seed (one render).
-            let image = Objective::new(fitted, measured.to_vec(), vec![], render_s.clone())?
-                .value(&[])?
-                .image
-                .data;
+            let (k, image) = refits.swap_remove(i);
             (
                 Verdict {
                     effect: effects[k].effect.clone(),
@@ -866,6 +909,11 @@ pub fn diagnose(
                 .zip(&cal.final_params)
                 .map(|(s, v)| (s.path.clone(), *v))
                 .collect(),
+            params_std: specs
+                .iter()
+                .zip(cal_std)
+                .map(|(s, v)| (s.path.clone(), v))
+                .collect(),
             loss: cal_eval.loss,
             loss_held_out: held.loss,
         },
@@ -873,6 +921,7 @@ pub fn diagnose(
         effects: ranked,
         verdict,
         noise_loss,
+        spread_pairs: opts.spread_pairs,
         timings,
         residual,
         calibrated_image: cal_eval.image.data,

@@ -40,6 +40,7 @@ mod objective;
 mod params;
 mod reference;
 pub mod residual;
+mod spread;
 
 pub use adam::{Adam, AdamGroup};
 pub use diagnose::{
@@ -56,6 +57,7 @@ pub use objective::{
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
 pub use reference::load_reference;
 pub use residual::{analyse_residual, RegionShare, ResidualOptions, ResidualReport};
+pub use spread::{linearised_spread, parameter_spread};
 
 /// An error of the calibration layer, with a one-line message.
 #[derive(Debug, thiserror::Error)]

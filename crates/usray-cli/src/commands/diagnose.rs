@@ -125,10 +125,15 @@ fn report(
         writeln!(r, "**Not told apart:** {} explain(s) these data about as well (held-out shrink within {:.2}); more data (other angles, depths, channel data) would be needed to choose.\n", alt.join(", "), usray_optim::TIE_MARGIN)?;
     }
     writeln!(r, "## 1. Calibrated base model\n")?;
-    writeln!(r, "| parameter | value |\n|---|---|")?;
+    writeln!(
+        r,
+        "| parameter | value | ± (Monte Carlo spread) |\n|---|---|---|"
+    )?;
     for (p, v) in &d.calibrated.params {
-        writeln!(r, "| `{p}` | {v:.6e} |")?;
+        let std = d.calibrated.params_std.get(p).copied().flatten();
+        writeln!(r, "| `{p}` | {v:.6e} | {} |", std_text(std))?;
     }
+    writeln!(r, "\n±: the standard deviation the fitted value would have under the simulation's Monte Carlo noise (a linearised fit repeated on {} independent noise realisations, `usray_optim::parameter_spread`). It counts noise only: where parameters trade against each other, or the loss is biased, the error can be many times larger (docs/diagnosis.md, \"How well each parameter is determined\").", d.spread_pairs)?;
     writeln!(
         r,
         "\nLoss {:.4e} on the fit's seed, {:.4e} held out (seed + 1); Monte Carlo noise level {:.4e}.\n",
@@ -144,22 +149,7 @@ fn report(
     for s in &d.where_ {
         writeln!(r, "| {} | {} | {:.3} |", s.partition, s.region, s.share)?;
     }
-    writeln!(
-        r,
-        "\nKinds of residual (`diagnosis.json`, `residual_kinds`):\n"
-    )?;
-    for e in &d.residual.echo_position {
-        writeln!(r, "- echo position, {}: {e:?}", e.region)?;
-    }
-    for e in &d.residual.echo_amplitude {
-        writeln!(r, "- echo amplitude, {}: {e:?}", e.region)?;
-    }
-    for e in &d.residual.boundary_width {
-        writeln!(r, "- boundary width, {}: {e:?}", e.region)?;
-    }
-    for e in &d.residual.texture {
-        writeln!(r, "- texture, {}: {e:?}", e.region)?;
-    }
+    residual_kinds(&mut r, &d.residual)?;
     writeln!(r, "\n## 3–4. Candidate effects\n")?;
     writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data, for the refitted candidates.\n")?;
     writeln!(
@@ -170,7 +160,10 @@ fn report(
         let found: Vec<String> = e
             .params
             .iter()
-            .map(|(p, v)| format!("`{p}` = {v:.4e}"))
+            .map(|(p, v)| match e.params_std.get(p).copied() {
+                Some(std) => format!("`{p}` = {v:.4e} ± {}", std_text(std)),
+                None => format!("`{p}` = {v:.4e}"),
+            })
             .collect();
         writeln!(
             r,
@@ -186,6 +179,85 @@ fn report(
         )?;
     }
     let t = &d.timings;
-    writeln!(r, "\n## Time\n\n{wall:.1} s in all: calibration {:.1} s, held-out evaluation {:.1} s, scoring every candidate {:.1} s, refits {:.1} s.", t.calibration_s, t.held_out_s, t.scoring_s, t.refits_s)?;
+    writeln!(r, "\n## Time\n\n{wall:.1} s in all: calibration {:.1} s, held-out evaluation {:.1} s, scoring every candidate {:.1} s, refits {:.1} s, parameter spreads {:.1} s.", t.calibration_s, t.held_out_s, t.scoring_s, t.refits_s, t.spread_s)?;
     Ok(r)
+}
+
+/// A standard deviation, or why there is none.
+fn std_text(std: Option<f64>) -> String {
+    std.map_or("not determined".into(), |s| format!("{s:.2e}"))
+}
+
+/// `Some(x)` formatted by `f`, `—` for `None`.
+fn or_dash(v: Option<f64>, f: impl Fn(f64) -> String) -> String {
+    v.map_or("—".into(), f)
+}
+
+/// The kinds of residual (echo position, amplitude, width, texture) as tables.
+fn residual_kinds(r: &mut String, k: &usray_optim::ResidualReport) -> std::fmt::Result {
+    writeln!(
+        r,
+        "\nKinds of residual (also in `diagnosis.json`, `residual_kinds`):\n"
+    )?;
+    writeln!(r, "| echo position in | shift (measured deeper +), mm | correlation once aligned |\n|---|---|---|")?;
+    for e in &k.echo_position {
+        let limit = if e.at_search_limit {
+            " (at the search limit)"
+        } else {
+            ""
+        };
+        writeln!(
+            r,
+            "| {} | {}{limit} | {} |",
+            e.region,
+            or_dash(e.shift_m, |v| format!("{:+.3}", 1e3 * v)),
+            or_dash(e.correlation, |v| format!("{v:.2}"))
+        )?;
+    }
+    writeln!(r, "\n| echo amplitude in | pixels | mean level, simulated − measured, dB | echo energy, simulated / measured, dB |\n|---|---|---|---|")?;
+    for e in &k.echo_amplitude {
+        writeln!(
+            r,
+            "| {} | {} | {} | {} |",
+            e.region,
+            e.pixels,
+            or_dash(e.mean_db_difference, |v| format!("{v:+.2}")),
+            or_dash(e.energy_db_difference, |v| format!("{v:+.2}"))
+        )?;
+    }
+    writeln!(r, "\n| boundary width (echo FWHM) of | simulated, mm | measured, mm | columns (sim / meas) |\n|---|---|---|---|")?;
+    for e in &k.boundary_width {
+        writeln!(
+            r,
+            "| {} | {} | {} | {} / {} |",
+            e.region,
+            or_dash(e.simulated_fwhm_m, |v| format!("{:.3}", 1e3 * v)),
+            or_dash(e.measured_fwhm_m, |v| format!("{:.3}", 1e3 * v)),
+            e.simulated_columns,
+            e.measured_columns
+        )?;
+    }
+    writeln!(r, "\n| texture in | pixels | image | mean grey | grey std | speckle SNR | clipped |\n|---|---|---|---|---|---|---|")?;
+    for e in &k.texture {
+        for (which, g) in [("simulated", &e.simulated), ("measured", &e.measured)] {
+            match g {
+                Some(g) => writeln!(
+                    r,
+                    "| {} | {} | {which} | {:.3} | {:.3} | {} | {:.0}% |",
+                    e.region,
+                    e.pixels,
+                    g.mean_grey,
+                    g.std_grey,
+                    or_dash(g.speckle_snr, |v| format!("{v:.2}")),
+                    100.0 * g.clipped_fraction
+                )?,
+                None => writeln!(
+                    r,
+                    "| {} | {} | {which} | — | — | — | — |",
+                    e.region, e.pixels
+                )?,
+            }
+        }
+    }
+    writeln!(r, "\n(Speckle SNR is 1.91 for fully developed speckle; clipped: pixels below the dynamic range.)")
 }
