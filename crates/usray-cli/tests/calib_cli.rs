@@ -207,3 +207,89 @@ mod usray {
         std::fs::write(path, bytes).unwrap();
     }
 }
+
+/// `usray diagnose` writes every output; `diagnosis.json` gives each fitted
+/// parameter its spread (`params_std`), and `report.md` shows them and the kinds
+/// of residual as tables (not debug output).
+#[test]
+fn diagnose_writes_report_with_parameter_spreads() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let refdir = dir.path().join("ref");
+    assert!(usray(&[
+        "render",
+        s,
+        "--seed",
+        "7",
+        "--out",
+        refdir.to_str().unwrap(),
+        "--quiet"
+    ])
+    .status
+    .success());
+    let out = dir.path().join("d");
+    let o = usray(&[
+        "diagnose",
+        s,
+        "--measured",
+        refdir.join("bmode.npy").to_str().unwrap(),
+        "--iters",
+        "2",
+        "--confirm",
+        "1",
+        "--rays",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "diagnosis.json",
+        "report.md",
+        "measured.png",
+        "calibrated.png",
+        "after.png",
+        "residual_calibrated.png",
+        "residual_after.png",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).unwrap())
+            .unwrap();
+    let params = v["calibrated"]["params"].as_object().unwrap();
+    let stds = v["calibrated"]["params_std"].as_object().unwrap();
+    assert_eq!(
+        params.keys().collect::<Vec<_>>(),
+        stds.keys().collect::<Vec<_>>()
+    );
+    // The radius is always seen by the image: a positive, finite spread.
+    let r_std = stds["objects.cylinder.radius_m"].as_f64().unwrap();
+    assert!(r_std > 0.0 && r_std < 1e-3, "radius spread {r_std}");
+    let refitted: Vec<&serde_json::Value> = v["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["shrink"].is_f64())
+        .collect();
+    assert_eq!(refitted.len(), 1);
+    assert!(refitted[0]["params_std"]
+        .as_object()
+        .unwrap()
+        .contains_key(refitted[0]["path"].as_str().unwrap()));
+    assert!(v["timings"]["spread_s"].as_f64().unwrap() > 0.0);
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    for needle in [
+        "± (Monte Carlo spread)",
+        "| echo position in |",
+        "| texture in |",
+    ] {
+        assert!(report.contains(needle), "report.md lacks `{needle}`");
+    }
+    assert!(
+        !report.contains("EchoPosition {"),
+        "debug output in report.md"
+    );
+}

@@ -193,71 +193,131 @@ fn or_dash(v: Option<f64>, f: impl Fn(f64) -> String) -> String {
     v.map_or("—".into(), f)
 }
 
-/// The kinds of residual (echo position, amplitude, width, texture) as tables.
-fn residual_kinds(r: &mut String, k: &usray_optim::ResidualReport) -> std::fmt::Result {
+/// A Markdown table: a blank line, the header, the rule and one row per entry.
+fn table(r: &mut String, header: &[&str], rows: Vec<Vec<String>>) -> std::fmt::Result {
     writeln!(
         r,
-        "\nKinds of residual (also in `diagnosis.json`, `residual_kinds`):\n"
+        "\n| {} |\n|{}",
+        header.join(" | "),
+        "---|".repeat(header.len())
     )?;
-    writeln!(r, "| echo position in | shift (measured deeper +), mm | correlation once aligned |\n|---|---|---|")?;
-    for e in &k.echo_position {
-        let limit = if e.at_search_limit {
-            " (at the search limit)"
-        } else {
-            ""
-        };
-        writeln!(
-            r,
-            "| {} | {}{limit} | {} |",
-            e.region,
-            or_dash(e.shift_m, |v| format!("{:+.3}", 1e3 * v)),
-            or_dash(e.correlation, |v| format!("{v:.2}"))
-        )?;
+    for row in rows {
+        writeln!(r, "| {} |", row.join(" | "))?;
     }
-    writeln!(r, "\n| echo amplitude in | pixels | mean level, simulated − measured, dB | echo energy, simulated / measured, dB |\n|---|---|---|---|")?;
-    for e in &k.echo_amplitude {
-        writeln!(
-            r,
-            "| {} | {} | {} | {} |",
-            e.region,
-            e.pixels,
-            or_dash(e.mean_db_difference, |v| format!("{v:+.2}")),
-            or_dash(e.energy_db_difference, |v| format!("{v:+.2}"))
-        )?;
-    }
-    writeln!(r, "\n| boundary width (echo FWHM) of | simulated, mm | measured, mm | columns (sim / meas) |\n|---|---|---|---|")?;
-    for e in &k.boundary_width {
-        writeln!(
-            r,
-            "| {} | {} | {} | {} / {} |",
-            e.region,
-            or_dash(e.simulated_fwhm_m, |v| format!("{:.3}", 1e3 * v)),
-            or_dash(e.measured_fwhm_m, |v| format!("{:.3}", 1e3 * v)),
-            e.simulated_columns,
-            e.measured_columns
-        )?;
-    }
-    writeln!(r, "\n| texture in | pixels | image | mean grey | grey std | speckle SNR | clipped |\n|---|---|---|---|---|---|---|")?;
-    for e in &k.texture {
-        for (which, g) in [("simulated", &e.simulated), ("measured", &e.measured)] {
-            match g {
-                Some(g) => writeln!(
-                    r,
-                    "| {} | {} | {which} | {:.3} | {:.3} | {} | {:.0}% |",
-                    e.region,
-                    e.pixels,
-                    g.mean_grey,
-                    g.std_grey,
-                    or_dash(g.speckle_snr, |v| format!("{v:.2}")),
-                    100.0 * g.clipped_fraction
-                )?,
-                None => writeln!(
-                    r,
-                    "| {} | {} | {which} | — | — | — | — |",
-                    e.region, e.pixels
-                )?,
+    Ok(())
+}
+
+/// The kinds of residual (echo position, amplitude, width, texture) as tables.
+fn residual_kinds(r: &mut String, k: &usray_optim::ResidualReport) -> std::fmt::Result {
+    let mm = |v: Option<f64>, sign: bool| {
+        or_dash(v, |v| {
+            if sign {
+                format!("{:+.3}", 1e3 * v)
+            } else {
+                format!("{:.3}", 1e3 * v)
             }
-        }
-    }
+        })
+    };
+    let db = |v: Option<f64>| or_dash(v, |v| format!("{v:+.2}"));
+    writeln!(
+        r,
+        "\nKinds of residual (also in `diagnosis.json`, `residual_kinds`):"
+    )?;
+    table(
+        r,
+        &[
+            "echo position in",
+            "shift (measured deeper +), mm",
+            "correlation once aligned",
+        ],
+        k.echo_position
+            .iter()
+            .map(|e| {
+                let limit = if e.at_search_limit {
+                    " (at the search limit)"
+                } else {
+                    ""
+                };
+                vec![
+                    e.region.clone(),
+                    format!("{}{limit}", mm(e.shift_m, true)),
+                    or_dash(e.correlation, |v| format!("{v:.2}")),
+                ]
+            })
+            .collect(),
+    )?;
+    table(
+        r,
+        &[
+            "echo amplitude in",
+            "pixels",
+            "mean level, simulated − measured, dB",
+            "echo energy, simulated / measured, dB",
+        ],
+        k.echo_amplitude
+            .iter()
+            .map(|e| {
+                vec![
+                    e.region.clone(),
+                    e.pixels.to_string(),
+                    db(e.mean_db_difference),
+                    db(e.energy_db_difference),
+                ]
+            })
+            .collect(),
+    )?;
+    table(
+        r,
+        &[
+            "boundary width (echo FWHM) of",
+            "simulated, mm",
+            "measured, mm",
+            "columns (sim / meas)",
+        ],
+        k.boundary_width
+            .iter()
+            .map(|e| {
+                vec![
+                    e.region.clone(),
+                    mm(e.simulated_fwhm_m, false),
+                    mm(e.measured_fwhm_m, false),
+                    format!("{} / {}", e.simulated_columns, e.measured_columns),
+                ]
+            })
+            .collect(),
+    )?;
+    let stats = |g: &Option<usray_optim::residual::GreyStats>| match g {
+        Some(g) => vec![
+            format!("{:.3}", g.mean_grey),
+            format!("{:.3}", g.std_grey),
+            or_dash(g.speckle_snr, |v| format!("{v:.2}")),
+            format!("{:.0}%", 100.0 * g.clipped_fraction),
+        ],
+        None => vec!["—".into(); 4],
+    };
+    table(
+        r,
+        &[
+            "texture in",
+            "pixels",
+            "image",
+            "mean grey",
+            "grey std",
+            "speckle SNR",
+            "clipped",
+        ],
+        k.texture
+            .iter()
+            .flat_map(|e| {
+                [("simulated", &e.simulated), ("measured", &e.measured)].map(|(which, g)| {
+                    [
+                        vec![e.region.clone(), e.pixels.to_string(), which.into()],
+                        stats(g),
+                    ]
+                    .concat()
+                })
+            })
+            .collect(),
+    )?;
     writeln!(r, "\n(Speckle SNR is 1.91 for fully developed speckle; clipped: pixels below the dynamic range.)")
 }
