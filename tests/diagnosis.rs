@@ -193,12 +193,12 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
         .into_iter()
         .find(|c| c.effect == "sound_speed")
         .unwrap();
-    let several = score_candidate(&speed, &base, &measured, base_loss, &render).unwrap();
+    let several = score_candidate(&speed, &base, &measured, base_loss, &render, false).unwrap();
     let null_only = Candidate {
         onsets: vec![c0],
         ..speed.clone()
     };
-    let one = score_candidate(&null_only, &base, &measured, base_loss, &render).unwrap();
+    let one = score_candidate(&null_only, &base, &measured, base_loss, &render, false).unwrap();
     eprintln!(
         "sound speed +4%: five onsets score {:.3} from {:.1} m/s; null only {:.3} from {:.1} m/s (true {:.1})",
         several.score,

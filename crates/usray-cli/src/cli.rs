@@ -137,6 +137,12 @@ pub enum Command {
         /// (exact: the parts sum to the full gradient).
         #[arg(long, value_name = "N", default_value_t = 1)]
         batches: usize,
+        /// Render every evaluation twice, with independent seeds, and fit the paired
+        /// loss, whose ℓ2 term is unbiased in the simulation's Monte Carlo variance
+        /// (the one-render loss rewards a quieter simulation and biases a rough
+        /// surface's roughness low at few rays). Twice the renders per iteration.
+        #[arg(long)]
+        paired: bool,
         /// Override the scene's `acquisition.rays_per_element`.
         #[arg(long, value_name = "N")]
         rays: Option<usize>,
@@ -173,6 +179,12 @@ pub enum Command {
         /// Override the scene's `acquisition.seed` (held-out data use seed + 1).
         #[arg(long)]
         seed: Option<u64>,
+        /// Use the paired loss throughout (every loss from two renders with
+        /// independent seeds, unbiased in the simulation's Monte Carlo variance in
+        /// its ℓ2 term): fits are no longer rewarded for a quieter simulation.
+        /// Twice the renders.
+        #[arg(long)]
+        paired: bool,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

@@ -293,3 +293,48 @@ fn diagnose_writes_report_with_parameter_spreads() {
         "debug output in report.md"
     );
 }
+
+/// `usray fit --paired` fits the paired loss and records its second seed.
+#[test]
+fn fit_paired_records_its_second_seed() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let refdir = dir.path().join("ref");
+    assert!(usray(&[
+        "render",
+        s,
+        "--seed",
+        "3",
+        "--out",
+        refdir.to_str().unwrap(),
+        "--quiet"
+    ])
+    .status
+    .success());
+    let out = dir.path().join("f");
+    let o = usray(&[
+        "fit",
+        s,
+        "--reference",
+        refdir.join("bmode.npy").to_str().unwrap(),
+        "--params",
+        "materials.target.roughness=0.1:0.9",
+        "--iters",
+        "2",
+        "--paired",
+        "--seed",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("fit.json")).unwrap()).unwrap();
+    assert_eq!(
+        v["options"]["paired_seed"].as_u64(),
+        Some(5 + usray_optim::PAIRED_SEED_OFFSET)
+    );
+    assert!(v["final"]["loss"].as_f64().is_some());
+}

@@ -1,7 +1,7 @@
 //! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
 //!
 //! ```text
-//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]]
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired]
 //! ```
 //!
 //! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
@@ -11,6 +11,7 @@
 //! calibration and refits, and prints one line per draw and the summary. `SEED`
 //! (default 2026) is the master seed of the draws: another seed, other draws.
 //! `KIND,...` keeps only the draws of those kinds (e.g. `depth_gain`).
+//! `--paired` diagnoses with the paired loss (`DiagnoseOptions::paired`).
 //!
 //! For each rightly named effect it also prints how far each parameter of the
 //! named refit lies from the truth of the hidden scene, in units of its reported
@@ -24,7 +25,9 @@ use usray_optim::{diagnose, DiagnoseOptions};
 use usray_transport::{RenderOptions, Scene};
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let all: Vec<String> = std::env::args().skip(1).collect();
+    let paired = all.iter().any(|a| a == "--paired");
+    let args: Vec<String> = all.into_iter().filter(|a| a != "--paired").collect();
     if args.len() < 4 {
         eprintln!("usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]]");
         std::process::exit(2);
@@ -58,6 +61,7 @@ fn main() {
     let dopts = DiagnoseOptions {
         calibration_iters: iters,
         refit_iters: iters,
+        paired,
         render,
         ..Default::default()
     };

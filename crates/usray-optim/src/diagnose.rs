@@ -362,6 +362,7 @@ pub fn score_candidate(
     measured: &[f64],
     calibrated_loss: f64,
     render: &RenderOptions,
+    paired: bool,
 ) -> Result<Score, OptimError> {
     let spec = ParamSpec {
         path: c.path.clone(),
@@ -369,12 +370,13 @@ pub fn score_candidate(
         max: c.range.1,
     };
     let objective_at = |v: f64, render: &RenderOptions| -> Result<Objective, OptimError> {
-        Objective::new(
+        Ok(Objective::new(
             c.switched_on(calibrated, v)?,
             measured.to_vec(),
             vec![spec.clone()],
             render.clone(),
-        )
+        )?
+        .with_pairing(paired))
     };
     // The onset: the only one, or the best of a few by loss alone, refined by
     // trying the points half and a quarter of the onsets' spacing either side of
@@ -512,6 +514,12 @@ pub struct DiagnoseOptions {
     /// ([`crate::parameter_spread`]; default 4, at least 1: the pair `s`,
     /// `s + 1` is rendered anyway).
     pub spread_pairs: usize,
+    /// Use the paired loss ([`crate::Objective::pair_seeds`]) everywhere: the
+    /// calibration, scoring, refits and held-out losses render twice with
+    /// independent seeds, so that no fit is rewarded for a quieter simulation,
+    /// and the noise level is the paired loss of the calibrated model against
+    /// its own image (default `false`: the paper's one-render loss).
+    pub paired: bool,
     /// Fit settings shared by calibration and refits (iterations overridden).
     pub fit: FitOptions,
     /// Render options of the simulation (rays, seed `s`, threads).
@@ -528,6 +536,7 @@ impl Default for DiagnoseOptions {
             min_shrink: 0.2,
             noise_factor: 1.5,
             spread_pairs: 4,
+            paired: false,
             fit: FitOptions::default(),
             render: RenderOptions::default(),
         }
@@ -625,6 +634,8 @@ pub struct Diagnosis {
     pub noise_loss: f64,
     /// Noise realisations (pairs of seeds) behind each `params_std`.
     pub spread_pairs: usize,
+    /// Whether every loss was the paired loss ([`DiagnoseOptions::paired`]).
+    pub paired: bool,
     /// Where each step's time went.
     pub timings: Timings,
     /// The full residual analysis of the calibrated model (kinds of residual).
@@ -710,7 +721,8 @@ pub fn diagnose(
         measured.to_vec(),
         specs.clone(),
         render_s.clone(),
-    )?;
+    )?
+    .with_pairing(opts.paired);
     let start = base.initial_physical();
     let cal = fit(
         &mut base,
@@ -733,8 +745,23 @@ pub fn diagnose(
         vec![],
         render_held.clone(),
     )?
+    .with_pairing(opts.paired)
     .value(&[])?;
-    let noise_loss = base.loss.value(&held.image.data, &cal_eval.image.data);
+    // The noise level: the same loss with the calibrated model's own image (seed
+    // s) in the place of the data.
+    let noise_loss = if opts.paired {
+        Objective::new(
+            cal_scene.clone(),
+            cal_eval.image.data.clone(),
+            vec![],
+            render_held.clone(),
+        )?
+        .with_pairing(true)
+        .value(&[])?
+        .loss
+    } else {
+        base.loss.value(&held.image.data, &cal_eval.image.data)
+    };
     timings.held_out_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let cal_std = parameter_spread(
@@ -761,7 +788,14 @@ pub fn diagnose(
     let mut starts = Vec::new();
     for c in &candidates {
         progress(&format!("scoring {}", c.effect));
-        let sc = score_candidate(c, &cal_scene, measured, cal_eval.loss, &render_s)?;
+        let sc = score_candidate(
+            c,
+            &cal_scene,
+            measured,
+            cal_eval.loss,
+            &render_s,
+            opts.paired,
+        )?;
         starts.push(sc.start);
         effects.push(EffectResult {
             effect: c.effect.clone(),
@@ -800,7 +834,8 @@ pub fn diagnose(
             max: c.range.1,
         }];
         refit_specs.extend(specs.iter().cloned());
-        let mut obj = Objective::new(on, measured.to_vec(), refit_specs, render_s.clone())?;
+        let mut obj = Objective::new(on, measured.to_vec(), refit_specs, render_s.clone())?
+            .with_pairing(opts.paired);
         let x0 = obj.initial_physical();
         let r = fit(
             &mut obj,
@@ -821,6 +856,7 @@ pub fn diagnose(
             vec![],
             render_held.clone(),
         )?
+        .with_pairing(opts.paired)
         .value(&[])?;
         let shrink = 1.0 - after.loss / held.loss;
         let t_spread = Instant::now();
@@ -922,6 +958,7 @@ pub fn diagnose(
         verdict,
         noise_loss,
         spread_pairs: opts.spread_pairs,
+        paired: opts.paired,
         timings,
         residual,
         calibrated_image: cal_eval.image.data,

@@ -53,6 +53,7 @@ pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};
 pub use loss::L1L2;
 pub use objective::{
     grid_shape, DualReplay, Evaluation, FdChannels, Objective, PathReplay, TransportGradient,
+    PAIRED_SEED_OFFSET,
 };
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
 pub use reference::load_reference;

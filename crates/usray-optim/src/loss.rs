@@ -67,4 +67,125 @@ impl L1L2 {
         let mut g = vec![0.0; image.len()];
         self.value_and_gradient(image, reference, &mut g)
     }
+
+    /// The loss of two images `a`, `b` of the same model rendered with
+    /// independent seeds, in the form of the energy score (Gneiting & Raftery
+    /// 2007, eq. 22) with the pixel loss `ℓ(d) = λ₁|d| + λ₂d²`:
+    ///
+    /// `L = (1/N_pix) Σ_u [ ½ℓ(a_u − R_u) + ½ℓ(b_u − R_u) − ½ℓ(a_u − b_u) ]`
+    ///
+    /// and its gradients `∂L/∂a`, `∂L/∂b` into `grad_a`, `grad_b`. Why: the
+    /// one-render loss rewards a quieter simulation, `E(s − R)² = (E s − R)² +
+    /// Var s`, so a fit at few rays drifts to parameters with less Monte Carlo
+    /// noise (a smoother surface). Here the ℓ2 term is `λ₂ (a − R)(b − R)`,
+    /// whose expectation over the two seeds is `λ₂ (E s − R)²` exactly; the ℓ1
+    /// term, `E|s − R| − ½E|s − s'|`, still rewards a quieter simulation, but
+    /// less: `0.23 σ` against the one-render loss's `0.80 σ` for a pixel of
+    /// Gaussian noise `σ` with `E s = R` (it is a proper score: its expectation
+    /// is least when the model's pixel distribution is the data's).
+    ///
+    /// ```
+    /// use usray_optim::L1L2;
+    /// let l2 = L1L2 { lambda1: 0.0, lambda2: 1.0 };
+    /// let (a, b, r) = ([0.5, 0.2], [0.3, 0.0], [0.0, 0.1]);
+    /// let (mut ga, mut gb) = ([0.0; 2], [0.0; 2]);
+    /// let l = l2.paired_value_and_gradient(&a, &b, &r, &mut ga, &mut gb);
+    /// // The ℓ2 term is the product of the two residuals.
+    /// assert!((l - (0.5 * 0.3 + 0.1 * -0.1) / 2.0).abs() < 1e-15);
+    /// assert!((ga[0] - 0.3 / 2.0).abs() < 1e-15 && (gb[0] - 0.5 / 2.0).abs() < 1e-15);
+    /// ```
+    ///
+    /// # Panics
+    /// If the five slices differ in length (a programming error).
+    pub fn paired_value_and_gradient(
+        &self,
+        a: &[f64],
+        b: &[f64],
+        reference: &[f64],
+        grad_a: &mut [f64],
+        grad_b: &mut [f64],
+    ) -> f64 {
+        let n = a.len();
+        assert!(
+            [b.len(), reference.len(), grad_a.len(), grad_b.len()]
+                .iter()
+                .all(|&m| m == n),
+            "paired loss: slices of different lengths"
+        );
+        let inv_n = 1.0 / n.max(1) as f64;
+        // Pixel loss and its derivative (sign 0 at 0, as in the one-render loss).
+        let ell = |d: f64| self.lambda1 * d.abs() + self.lambda2 * d * d;
+        let d_ell = |d: f64| {
+            let sign = if d > 0.0 {
+                1.0
+            } else if d < 0.0 {
+                -1.0
+            } else {
+                0.0
+            };
+            self.lambda1 * sign + 2.0 * self.lambda2 * d
+        };
+        let mut sum = 0.0;
+        for u in 0..n {
+            let (da, db, dab) = (a[u] - reference[u], b[u] - reference[u], a[u] - b[u]);
+            sum += 0.5 * (ell(da) + ell(db) - ell(dab));
+            grad_a[u] = 0.5 * (d_ell(da) - d_ell(dab)) * inv_n;
+            grad_b[u] = 0.5 * (d_ell(db) + d_ell(dab)) * inv_n;
+        }
+        sum * inv_n
+    }
+
+    /// The paired loss alone ([`L1L2::paired_value_and_gradient`]).
+    pub fn paired_value(&self, a: &[f64], b: &[f64], reference: &[f64]) -> f64 {
+        let (mut ga, mut gb) = (vec![0.0; a.len()], vec![0.0; a.len()]);
+        self.paired_value_and_gradient(a, b, reference, &mut ga, &mut gb)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The paired loss's gradients against central differences, with both
+    /// terms on and residuals away from the ℓ1 kinks.
+    #[test]
+    fn paired_gradient_matches_central_differences() {
+        let loss = L1L2 {
+            lambda1: 0.7,
+            lambda2: 1.3,
+        };
+        let a = [0.31, -0.2, 0.05, 0.9];
+        let b = [0.12, 0.4, -0.33, 0.6];
+        let r = [0.0, 0.1, 0.2, 0.3];
+        let (mut ga, mut gb) = ([0.0; 4], [0.0; 4]);
+        loss.paired_value_and_gradient(&a, &b, &r, &mut ga, &mut gb);
+        let h = 1e-6;
+        for u in 0..4 {
+            for (which, g) in [(0, ga[u]), (1, gb[u])] {
+                let moved = |s: f64| {
+                    let (mut x, mut y) = (a, b);
+                    if which == 0 {
+                        x[u] += s;
+                    } else {
+                        y[u] += s;
+                    }
+                    loss.paired_value(&x, &y, &r)
+                };
+                let fd = (moved(h) - moved(-h)) / (2.0 * h);
+                assert!(
+                    (fd - g).abs() < 1e-8,
+                    "pixel {u}, image {which}: {g} vs FD {fd}"
+                );
+            }
+        }
+    }
+
+    /// Equal images give the one-render loss; the paired loss is symmetric.
+    #[test]
+    fn paired_loss_of_equal_images_is_the_loss() {
+        let loss = L1L2::default();
+        let (a, b, r) = ([0.3, -0.1], [0.2, 0.4], [0.1, 0.0]);
+        assert!((loss.paired_value(&a, &a, &r) - loss.value(&a, &r)).abs() < 1e-15);
+        assert_eq!(loss.paired_value(&a, &b, &r), loss.paired_value(&b, &a, &r));
+    }
 }

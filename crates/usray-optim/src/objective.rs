@@ -23,6 +23,13 @@
 //!      the channel data `P` held fixed (two extra B-mode forwards; `B` is smooth
 //!      in `f_c`, step `10⁻⁴ f_c`). [`Evaluation::demod_fc_part`] reports it.
 //!
+//! **Paired loss** ([`Objective::paired_seed`], [`Objective::pair_seeds`]): steps 1–5
+//! run for two independent seeds, the loss is
+//! [`L1L2::paired_value_and_gradient`] of the two images (its ℓ2 term is
+//! `λ₂ (I_a − R)(I_b − R)`, unbiased in the simulation's Monte Carlo variance), and
+//! the two renders' gradients add; step 6's demodulation-frequency part is the
+//! central difference of the whole paired loss, counted once.
+//!
 //! **Fixed-seed semantics.** The gradient is that of the sampled estimator with
 //! common random numbers: the seed and ray budget are fixed, sampling decisions are
 //! held, and visibility changes (a ray that stops hitting the object) carry no
@@ -202,6 +209,11 @@ pub struct Objective {
     /// Transmit micro-batches for the transport replay (see
     /// [`Objective::value_and_gradient`]); empty = one batch of every transmit.
     pub transmit_batches: Vec<Vec<usize>>,
+    /// A second, independent seed: when set, every evaluation renders the scene
+    /// with both seeds and uses [`L1L2::paired_value_and_gradient`], the loss
+    /// whose ℓ2 term is unbiased in the simulation's Monte Carlo variance (twice
+    /// the renders). `None` (the default): the paper's loss on one render.
+    pub paired_seed: Option<u64>,
     transport: Box<dyn TransportGradient>,
     roles: Vec<ImagingRole>,
 }
@@ -269,6 +281,7 @@ impl Objective {
             loss: L1L2::default(),
             opts,
             transmit_batches: Vec::new(),
+            paired_seed: None,
             transport,
             roles,
         })
@@ -301,8 +314,9 @@ impl Objective {
     fn forward(
         &self,
         scene: &Scene,
+        opts: &RenderOptions,
     ) -> Result<(ChannelData, BMode, usray_signal::Workspace, Image, f64), OptimError> {
-        let (ch, stats) = render(scene, &self.opts)?;
+        let (ch, stats) = render(scene, opts)?;
         let op = BMode::new(&scene.imaging_settings(), &ch.meta, ch.n_samples)?;
         let mut ws = op.workspace();
         let image = op.forward(&ch, &mut ws)?;
@@ -313,8 +327,16 @@ impl Objective {
     /// check the gradient against).
     pub fn value(&self, physical: &[f64]) -> Result<Evaluation, OptimError> {
         let scene = self.scene_at(physical)?;
-        let (_, _, _, image, secs) = self.forward(&scene)?;
-        let loss = self.loss.value(&image.data, &self.reference);
+        let (_, _, _, image, mut secs) = self.forward(&scene, &self.opts)?;
+        let loss = match self.paired_opts() {
+            None => self.loss.value(&image.data, &self.reference),
+            Some(paired) => {
+                let (_, _, _, other, s) = self.forward(&scene, &paired)?;
+                secs += s;
+                self.loss
+                    .paired_value(&image.data, &other.data, &self.reference)
+            }
+        };
         Ok(Evaluation {
             loss,
             gradient: Vec::new(),
@@ -333,12 +355,131 @@ impl Objective {
     /// image losses do not split over angles).
     pub fn value_and_gradient(&self, physical: &[f64]) -> Result<Evaluation, OptimError> {
         let scene = self.scene_at(physical)?;
-        let (ch, op, mut ws, image, secs) = self.forward(&scene)?;
+        let (ch, op, mut ws, image, mut secs) = self.forward(&scene, &self.opts)?;
         let mut d_image = vec![0.0; image.data.len()];
-        let loss = self
-            .loss
-            .value_and_gradient(&image.data, &self.reference, &mut d_image);
-        let d_channels = op.vjp(&mut ws, &d_image)?;
+        let Some(paired) = self.paired_opts() else {
+            let loss = self
+                .loss
+                .value_and_gradient(&image.data, &self.reference, &mut d_image);
+            let (gradient, demod_fc_part) = self.backward(
+                &scene,
+                &self.opts,
+                &ch,
+                &op,
+                &mut ws,
+                &d_image,
+                FcPart::Alone,
+            )?;
+            return Ok(Evaluation {
+                loss,
+                gradient,
+                image,
+                demod_fc_part,
+                render_seconds: secs,
+            });
+        };
+        // Two independent renders; each carries its own part of the gradient.
+        let (ch_b, op_b, mut ws_b, image_b, s) = self.forward(&scene, &paired)?;
+        secs += s;
+        let mut d_image_b = vec![0.0; image.data.len()];
+        let loss = self.loss.paired_value_and_gradient(
+            &image.data,
+            &image_b.data,
+            &self.reference,
+            &mut d_image,
+            &mut d_image_b,
+        );
+        let (mut gradient, mut demod_fc_part) = self.backward(
+            &scene,
+            &self.opts,
+            &ch,
+            &op,
+            &mut ws,
+            &d_image,
+            FcPart::WithPaired(&ch_b),
+        )?;
+        let (g_b, d_b) = self.backward(
+            &scene,
+            &paired,
+            &ch_b,
+            &op_b,
+            &mut ws_b,
+            &d_image_b,
+            FcPart::Counted,
+        )?;
+        for (g, p) in gradient.iter_mut().zip(g_b) {
+            *g += p;
+        }
+        for (g, p) in demod_fc_part.iter_mut().zip(d_b) {
+            *g += p;
+        }
+        Ok(Evaluation {
+            loss,
+            gradient,
+            image,
+            demod_fc_part,
+            render_seconds: secs,
+        })
+    }
+
+    /// Sets [`Objective::paired_seed`] to the render seed plus
+    /// [`PAIRED_SEED_OFFSET`]: the paired loss, with a second seed independent
+    /// of the first (and of the seeds `s + k` that held-out renders and
+    /// resampled fits use).
+    ///
+    /// ```
+    /// use usray_optim::{Objective, PAIRED_SEED_OFFSET};
+    /// use usray_transport::{RenderOptions, Scene};
+    /// let scene = Scene::from_toml_str(include_str!("../../../scenes/cylinder.toml"), "cylinder.toml", ".")?;
+    /// let (nz, nx) = usray_optim::grid_shape(&scene)?;
+    /// let opts = RenderOptions { seed: Some(5), ..Default::default() };
+    /// let mut obj = Objective::new(scene, vec![0.0; nz * nx], vec![], opts)?;
+    /// obj.pair_seeds();
+    /// assert_eq!(obj.paired_seed, Some(5 + PAIRED_SEED_OFFSET));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn pair_seeds(&mut self) {
+        let seed = self.opts.seed.unwrap_or(self.scene.acquisition.seed);
+        self.paired_seed = Some(seed.wrapping_add(PAIRED_SEED_OFFSET));
+    }
+
+    /// This objective, with the paired loss ([`Objective::pair_seeds`]) when
+    /// `paired`.
+    #[must_use]
+    pub fn with_pairing(mut self, paired: bool) -> Self {
+        if paired {
+            self.pair_seeds();
+        }
+        self
+    }
+
+    /// The render options of the paired seed, if any.
+    fn paired_opts(&self) -> Option<RenderOptions> {
+        self.paired_seed.map(|seed| RenderOptions {
+            seed: Some(seed),
+            ..self.opts.clone()
+        })
+    }
+
+    /// `∂L/∂θ` of one render (`ch` under `opts`, B-mode operator `op` after its
+    /// forward pass in `ws`) given `∂L/∂I` of its image: the transport part by
+    /// path replay (per micro-batch) plus the image-formation parts, and the
+    /// demodulation-frequency part on its own. The latter is the whole loss's
+    /// central difference in `f_c` with the channel data held: for a paired
+    /// loss it is computed once, on the first render's call, with `other` the
+    /// second render's channel data ([`FcPart`]).
+    #[allow(clippy::too_many_arguments)]
+    fn backward(
+        &self,
+        scene: &Scene,
+        opts: &RenderOptions,
+        ch: &ChannelData,
+        op: &BMode,
+        ws: &mut usray_signal::Workspace,
+        d_image: &[f64],
+        fc_part: FcPart<'_>,
+    ) -> Result<(Vec<f64>, Vec<f64>), OptimError> {
+        let d_channels = op.vjp(ws, d_image)?;
         let paths: Vec<&str> = self.specs.iter().map(|s| s.path.as_str()).collect();
         let mut gradient = vec![0.0; paths.len()];
         let n_tx = ch.n_transmits();
@@ -367,7 +508,7 @@ impl Objective {
         for batch in &batches {
             let part = if batches.len() == 1 {
                 self.transport
-                    .channel_gradient(&scene, &paths, &d_channels, &self.opts)?
+                    .channel_gradient(scene, &paths, &d_channels, opts)?
             } else {
                 let mut masked = vec![0.0; d_channels.len()];
                 for &t in batch {
@@ -375,7 +516,7 @@ impl Objective {
                     masked[r.clone()].copy_from_slice(&d_channels[r]);
                 }
                 self.transport
-                    .channel_gradient(&scene, &paths, &masked, &self.opts)?
+                    .channel_gradient(scene, &paths, &masked, opts)?
             };
             for (g, p) in gradient.iter_mut().zip(part) {
                 *g += p;
@@ -383,13 +524,19 @@ impl Objective {
         }
         let mut demod_fc_part = vec![0.0; paths.len()];
         if self.roles.iter().any(|r| *r != ImagingRole::None) {
-            let cal = op.calibration_vjp(&mut ws, &d_image)?;
+            let cal = op.calibration_vjp(ws, d_image)?;
             for (j, role) in self.roles.iter().enumerate() {
                 match role {
                     ImagingRole::SoundSpeed => gradient[j] += cal.d_sound_speed,
                     ImagingRole::Pitch => gradient[j] += cal.d_pitch,
                     ImagingRole::CenterFrequency => {
-                        let part = self.demod_fc_derivative(&scene, &ch, &mut ws)?;
+                        let part = match fc_part {
+                            FcPart::Alone => self.demod_fc_derivative(scene, ch, None, ws)?,
+                            FcPart::WithPaired(b) => {
+                                self.demod_fc_derivative(scene, ch, Some(b), ws)?
+                            }
+                            FcPart::Counted => 0.0,
+                        };
                         demod_fc_part[j] = part;
                         gradient[j] += part;
                     }
@@ -397,13 +544,7 @@ impl Objective {
                 }
             }
         }
-        Ok(Evaluation {
-            loss,
-            gradient,
-            image,
-            demod_fc_part,
-            render_seconds: secs,
-        })
+        Ok((gradient, demod_fc_part))
     }
 
     /// `∂L(B_fc(P))/∂f_c` with `P` fixed: central difference in the demodulation
@@ -414,6 +555,7 @@ impl Objective {
         &self,
         scene: &Scene,
         ch: &ChannelData,
+        paired: Option<&ChannelData>,
         ws: &mut usray_signal::Workspace,
     ) -> Result<f64, OptimError> {
         let fc = ch.meta.center_frequency_hz;
@@ -423,10 +565,33 @@ impl Objective {
             meta.center_frequency_hz = f;
             let op = BMode::new(&scene.imaging_settings(), &meta, ch.n_samples)?;
             let img = op.forward(ch, ws)?;
-            Ok(self.loss.value(&img.data, &self.reference))
+            Ok(match paired {
+                None => self.loss.value(&img.data, &self.reference),
+                Some(b) => {
+                    let img_b = op.forward(b, ws)?;
+                    self.loss
+                        .paired_value(&img.data, &img_b.data, &self.reference)
+                }
+            })
         };
         Ok((at(fc + h)? - at(fc - h)?) / (2.0 * h))
     }
+}
+
+/// Offset of the paired loss's second seed from the first
+/// ([`Objective::pair_seeds`]).
+pub const PAIRED_SEED_OFFSET: u64 = 1 << 32;
+
+/// Which render's call of `Objective::backward` adds the demodulation-frequency
+/// part (a central difference of the whole loss, counted once).
+#[derive(Clone, Copy)]
+enum FcPart<'a> {
+    /// The one-render loss.
+    Alone,
+    /// The first render of a paired loss, with the second's channel data.
+    WithPaired(&'a ChannelData),
+    /// The second render of a paired loss: already counted.
+    Counted,
 }
 
 /// The imaging grid shape `(nz, nx)` of a scene.

@@ -316,6 +316,7 @@ pub fn fit_json(
             "rays_per_element": objective.opts.rays_per_element.unwrap_or(objective.scene.acquisition.rays_per_element),
             "seed": objective.opts.seed.unwrap_or(objective.scene.acquisition.seed),
             "transmit_batches": objective.transmit_batches,
+            "paired_seed": objective.paired_seed,
         }
     })
 }

@@ -23,6 +23,8 @@ pub struct DiagnoseArgs {
     pub rays: Option<usize>,
     /// Seed override.
     pub seed: Option<u64>,
+    /// The paired loss throughout.
+    pub paired: bool,
 }
 
 /// Runs the diagnosis and writes `diagnosis.json`, `report.md` and the images.
@@ -39,6 +41,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         calibration_iters: args.iters,
         refit_iters: args.iters,
         confirm_top: args.confirm,
+        paired: args.paired,
         render: RenderOptions {
             threads: (common.threads > 0).then_some(common.threads),
             rays_per_element: args.rays,
@@ -136,8 +139,15 @@ fn report(
     writeln!(r, "\n±: the standard deviation the fitted value would have under the simulation's Monte Carlo noise (a linearised fit repeated on {} independent noise realisations, `usray_optim::parameter_spread`). It counts noise only: where parameters trade against each other, or the loss is biased, the error can be many times larger (docs/diagnosis.md, \"How well each parameter is determined\").", d.spread_pairs)?;
     writeln!(
         r,
-        "\nLoss {:.4e} on the fit's seed, {:.4e} held out (seed + 1); Monte Carlo noise level {:.4e}.\n",
-        d.calibrated.loss, d.calibrated.loss_held_out, d.noise_loss
+        "\nLoss {:.4e} on the fit's seed, {:.4e} held out (seed + 1); Monte Carlo noise level {:.4e}.{}\n",
+        d.calibrated.loss,
+        d.calibrated.loss_held_out,
+        d.noise_loss,
+        if d.paired {
+            " Every loss is the paired loss (`--paired`: two renders with independent seeds, unbiased in the simulation's variance in its ℓ2 term)."
+        } else {
+            ""
+        }
     )?;
     writeln!(r, "| measured | calibrated | after the verdict's refit |\n|---|---|---|\n| ![measured](measured.png) | ![calibrated](calibrated.png) | ![after](after.png) |\n")?;
     writeln!(r, "## 2. Where the residual lies\n")?;

@@ -15,6 +15,8 @@ pub struct FitArgs {
     pub resample_seed: bool,
     /// Transmit micro-batches for the transport replay (1 = none).
     pub batches: usize,
+    /// The paired loss (two renders with independent seeds).
+    pub paired: bool,
     /// Ray override.
     pub rays: Option<usize>,
     /// Seed override.
@@ -39,6 +41,9 @@ pub fn run(
     )?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
     set_batches(&mut objective, args.batches)?;
+    if args.paired {
+        objective.pair_seeds();
+    }
     let options = FitOptions {
         iters: args.iters,
         resample_seed: args.resample_seed,
