@@ -174,7 +174,7 @@ pub struct Evaluation {
     pub loss: f64,
     /// `∂L/∂θ` in physical units, one per parameter (empty for [`Objective::value`]).
     pub gradient: Vec<f64>,
-    /// The simulated B-mode at `θ`.
+    /// The simulated B-mode at `θ` (for a paired loss, the first seed's).
     pub image: Image,
     /// For each parameter, the part of the gradient from the IQ demodulation
     /// frequency (non-zero only for `probe.center_frequency_hz`).
