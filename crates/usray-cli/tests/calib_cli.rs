@@ -208,6 +208,23 @@ mod usray {
     }
 }
 
+/// Renders `scene` with `seed` into `dir/ref` (the reference of a test) and
+/// returns that directory.
+fn rendered(dir: &Path, scene: &str, seed: u64) -> std::path::PathBuf {
+    let refdir = dir.join("ref");
+    let o = usray(&[
+        "render",
+        scene,
+        "--seed",
+        &seed.to_string(),
+        "--out",
+        refdir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    refdir
+}
+
 /// `usray diagnose` writes every output; `diagnosis.json` gives each fitted
 /// parameter its spread (`params_std`), and `report.md` shows them and the kinds
 /// of residual as tables (not debug output).
@@ -216,18 +233,7 @@ fn diagnose_writes_report_with_parameter_spreads() {
     let dir = tempfile::tempdir().unwrap();
     let scene = tiny_scene(dir.path());
     let s = scene.to_str().unwrap();
-    let refdir = dir.path().join("ref");
-    assert!(usray(&[
-        "render",
-        s,
-        "--seed",
-        "7",
-        "--out",
-        refdir.to_str().unwrap(),
-        "--quiet"
-    ])
-    .status
-    .success());
+    let refdir = rendered(dir.path(), s, 7);
     let out = dir.path().join("d");
     let o = usray(&[
         "diagnose",
@@ -300,18 +306,7 @@ fn fit_paired_records_its_second_seed() {
     let dir = tempfile::tempdir().unwrap();
     let scene = tiny_scene(dir.path());
     let s = scene.to_str().unwrap();
-    let refdir = dir.path().join("ref");
-    assert!(usray(&[
-        "render",
-        s,
-        "--seed",
-        "3",
-        "--out",
-        refdir.to_str().unwrap(),
-        "--quiet"
-    ])
-    .status
-    .success());
+    let refdir = rendered(dir.path(), s, 3);
     let out = dir.path().join("f");
     let o = usray(&[
         "fit",

@@ -49,17 +49,28 @@ impl L1L2 {
         let mut sum = 0.0;
         for ((g, &i), &r) in grad.iter_mut().zip(image).zip(reference) {
             let d = i - r;
-            sum += self.lambda1 * d.abs() + self.lambda2 * d * d;
-            let sign = if d > 0.0 {
-                1.0
-            } else if d < 0.0 {
-                -1.0
-            } else {
-                0.0
-            };
-            *g = (self.lambda1 * sign + 2.0 * self.lambda2 * d) / n;
+            sum += self.pixel(d);
+            *g = self.pixel_derivative(d) / n;
         }
         sum / n
+    }
+
+    /// The pixel loss `ℓ(d) = λ₁|d| + λ₂d²` of a residual `d`.
+    fn pixel(&self, d: f64) -> f64 {
+        self.lambda1 * d.abs() + self.lambda2 * d * d
+    }
+
+    /// `ℓ'(d) = λ₁ sign(d) + 2λ₂d`, with sign 0 at 0 (the subgradient the
+    /// optimiser sees at an exact match).
+    fn pixel_derivative(&self, d: f64) -> f64 {
+        let sign = if d > 0.0 {
+            1.0
+        } else if d < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        self.lambda1 * sign + 2.0 * self.lambda2 * d
     }
 
     /// The loss alone.
@@ -113,18 +124,7 @@ impl L1L2 {
             "paired loss: slices of different lengths"
         );
         let inv_n = 1.0 / n.max(1) as f64;
-        // Pixel loss and its derivative (sign 0 at 0, as in the one-render loss).
-        let ell = |d: f64| self.lambda1 * d.abs() + self.lambda2 * d * d;
-        let d_ell = |d: f64| {
-            let sign = if d > 0.0 {
-                1.0
-            } else if d < 0.0 {
-                -1.0
-            } else {
-                0.0
-            };
-            self.lambda1 * sign + 2.0 * self.lambda2 * d
-        };
+        let (ell, d_ell) = (|d| self.pixel(d), |d| self.pixel_derivative(d));
         let mut sum = 0.0;
         for u in 0..n {
             let (da, db, dab) = (a[u] - reference[u], b[u] - reference[u], a[u] - b[u]);

@@ -356,62 +356,44 @@ impl Objective {
     pub fn value_and_gradient(&self, physical: &[f64]) -> Result<Evaluation, OptimError> {
         let scene = self.scene_at(physical)?;
         let (ch, op, mut ws, image, mut secs) = self.forward(&scene, &self.opts)?;
-        let mut d_image = vec![0.0; image.data.len()];
-        let Some(paired) = self.paired_opts() else {
-            let loss = self
-                .loss
-                .value_and_gradient(&image.data, &self.reference, &mut d_image);
-            let (gradient, demod_fc_part) = self.backward(
-                &scene,
-                &self.opts,
-                &ch,
-                &op,
-                &mut ws,
-                &d_image,
-                FcPart::Alone,
-            )?;
-            return Ok(Evaluation {
-                loss,
-                gradient,
-                image,
-                demod_fc_part,
-                render_seconds: secs,
-            });
+        // The paired loss's second render, with its options.
+        let mut second = match self.paired_opts() {
+            Some(o) => Some((self.forward(&scene, &o)?, o)),
+            None => None,
         };
-        // Two independent renders; each carries its own part of the gradient.
-        let (ch_b, op_b, mut ws_b, image_b, s) = self.forward(&scene, &paired)?;
-        secs += s;
+        let mut d_image = vec![0.0; image.data.len()];
         let mut d_image_b = vec![0.0; image.data.len()];
-        let loss = self.loss.paired_value_and_gradient(
-            &image.data,
-            &image_b.data,
-            &self.reference,
-            &mut d_image,
-            &mut d_image_b,
-        );
-        let (mut gradient, mut demod_fc_part) = self.backward(
-            &scene,
-            &self.opts,
-            &ch,
-            &op,
-            &mut ws,
-            &d_image,
-            FcPart::WithPaired(&ch_b),
-        )?;
-        let (g_b, d_b) = self.backward(
-            &scene,
-            &paired,
-            &ch_b,
-            &op_b,
-            &mut ws_b,
-            &d_image_b,
-            FcPart::Counted,
-        )?;
-        for (g, p) in gradient.iter_mut().zip(g_b) {
-            *g += p;
-        }
-        for (g, p) in demod_fc_part.iter_mut().zip(d_b) {
-            *g += p;
+        let loss = match &second {
+            None => self
+                .loss
+                .value_and_gradient(&image.data, &self.reference, &mut d_image),
+            Some(((_, _, _, image_b, s), _)) => {
+                secs += s;
+                self.loss.paired_value_and_gradient(
+                    &image.data,
+                    &image_b.data,
+                    &self.reference,
+                    &mut d_image,
+                    &mut d_image_b,
+                )
+            }
+        };
+        let fc_part = match &second {
+            None => FcPart::Alone,
+            Some(((ch_b, ..), _)) => FcPart::WithPaired(ch_b),
+        };
+        let (mut gradient, mut demod_fc_part) =
+            self.backward(&scene, &self.opts, &ch, &op, &mut ws, &d_image, fc_part)?;
+        // Each render carries its own part of the gradient.
+        if let Some(((ch_b, op_b, ws_b, _, _), o)) = &mut second {
+            let (g_b, d_b) =
+                self.backward(&scene, o, ch_b, op_b, ws_b, &d_image_b, FcPart::Counted)?;
+            for (g, p) in gradient.iter_mut().zip(g_b) {
+                *g += p;
+            }
+            for (g, p) in demod_fc_part.iter_mut().zip(d_b) {
+                *g += p;
+            }
         }
         Ok(Evaluation {
             loss,
