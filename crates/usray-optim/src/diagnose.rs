@@ -36,6 +36,8 @@
 //!    calibrated and at the refitted parameters, so an effect that only fits the
 //!    Monte Carlo noise of seed `s` does not look like an explanation:
 //!    `shrink = 1 − loss_after / loss_calibrated`, both held out.
+//!    Every fitted parameter of the calibration and of each refit carries its
+//!    Monte Carlo spread ([`crate::parameter_spread`]).
 //! 5. **Verdict**: the confirmed effect with the largest shrink if it reaches
 //!    [`DiagnoseOptions::min_shrink`] — where several come within [`TIE_MARGIN`]
 //!    of the largest, the one with the highest score (it explains the gap along
@@ -44,6 +46,11 @@
 //!    calibrated loss is within [`DiagnoseOptions::noise_factor`] of the Monte
 //!    Carlo noise level (the loss between the calibrated model rendered with
 //!    seeds `s` and `s + 1`), and `"unexplained"` when a real gap remains.
+//!
+//! With [`DiagnoseOptions::paired`] every loss above is the paired loss
+//! ([`crate::Objective::pair_seeds`]: two renders with independent seeds,
+//! unbiased in the simulation's variance in its ℓ2 term), and the noise level is
+//! the paired loss of the calibrated model against its own seed-`s` image.
 
 use crate::fit::{fit, FitOptions};
 use crate::objective::Objective;
