@@ -689,7 +689,7 @@ pub fn name_effect(refits: &[(f64, f64)], min_shrink: f64) -> Option<(usize, Vec
 /// on the scene's grid); `progress` receives one line per step.
 ///
 /// # Errors
-/// A parameter the scene does not have, a measured image of the wrong shape, or
+/// `spread_pairs` of 0, a parameter the scene does not have, a measured image of the wrong shape, or
 /// any failing render.
 pub fn diagnose(
     scene: &Scene,
@@ -697,6 +697,11 @@ pub fn diagnose(
     opts: &DiagnoseOptions,
     mut progress: impl FnMut(&str),
 ) -> Result<Diagnosis, OptimError> {
+    if opts.spread_pairs == 0 {
+        return Err(OptimError::Diagnosis(
+            "spread_pairs must be at least 1 (the seeds s, s + 1 are rendered anyway)".into(),
+        ));
+    }
     let mut timings = Timings::default();
     let seed = opts.render.seed.unwrap_or(scene.acquisition.seed);
     let render_s = RenderOptions {
@@ -867,7 +872,11 @@ pub fn diagnose(
         .value(&[])?;
         let shrink = 1.0 - after.loss / held.loss;
         let t_spread = Instant::now();
-        let image_s = obj.value(&r.final_params)?.image.data;
+        // The refit's image on the fit's seed (one render, also with a paired loss).
+        let image_s = Objective::new(fitted.clone(), measured.to_vec(), vec![], render_s.clone())?
+            .value(&[])?
+            .image
+            .data;
         let std = parameter_spread(
             &obj,
             &r.final_params,
