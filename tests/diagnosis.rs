@@ -47,8 +47,11 @@ fn options(rays: usize, iters: usize) -> (BlindOptions, DiagnoseOptions) {
         DiagnoseOptions {
             calibration_iters: iters,
             refit_iters: iters,
-            // Two refits instead of three: CI time.
+            // Two refits instead of three, and the one-render loss instead of
+            // the paired default (half the renders): CI time.
+            // `no_effect_names_no_false_effect` runs the paired loss too.
             confirm_top: 2,
+            paired: false,
             render,
             ..Default::default()
         },
@@ -121,6 +124,50 @@ fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
     );
     // Scoring all candidates costs less than one refit.
     assert!(r.timings.scoring_s < r.timings.refits_s / options(12, 20).1.confirm_top as f64);
+    // The shrink is measured on three held-out seeds and carries its standard
+    // error; the wall's clears the naming threshold by several of them.
+    let named = r
+        .effects
+        .iter()
+        .find(|e| e.effect == "wall_thickness")
+        .unwrap();
+    let se = named
+        .shrink_std
+        .expect("a shrink on three held-out seeds has a standard error");
+    let min_shrink = DiagnoseOptions::default().min_shrink;
+    eprintln!("wall shrink {:.3} ± {se:.3}", r.verdict.shrink);
+    assert!(se > 0.0 && r.verdict.shrink - min_shrink > 3.0 * se);
+}
+
+/// Settings that would leave a step without data are refused, naming the setting.
+#[test]
+fn zero_held_out_seeds_or_spread_pairs_are_refused() {
+    let base = base();
+    let (nz, nx) = usray::optim::grid_shape(&base).unwrap();
+    let measured = vec![0.0; nz * nx];
+    for (opts, what) in [
+        (
+            DiagnoseOptions {
+                held_out_seeds: 0,
+                ..Default::default()
+            },
+            "held_out_seeds",
+        ),
+        (
+            DiagnoseOptions {
+                spread_pairs: 0,
+                ..Default::default()
+            },
+            "spread_pairs",
+        ),
+    ] {
+        let t = std::time::Instant::now();
+        let err = diagnose(&base, &measured, &opts, |_| {})
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains(what), "{err}");
+        assert!(t.elapsed().as_secs_f64() < 1.0, "refused only after work");
+    }
 }
 
 /// A draw with no effect (measurement noise only) must not name an effect.

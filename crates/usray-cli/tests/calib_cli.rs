@@ -226,8 +226,9 @@ fn rendered(dir: &Path, scene: &str, seed: u64) -> std::path::PathBuf {
 }
 
 /// `usray diagnose` writes every output; `diagnosis.json` gives each fitted
-/// parameter its spread (`params_std`), and `report.md` shows them and the kinds
-/// of residual as tables (not debug output).
+/// parameter its spread (`params_std`) and each refit's shrink its standard
+/// error, and `report.md` shows them and the kinds of residual as tables (not
+/// debug output). `--one-render` and `--held-out-seeds` are honoured.
 #[test]
 fn diagnose_writes_report_with_parameter_spreads() {
     let dir = tempfile::tempdir().unwrap();
@@ -286,6 +287,13 @@ fn diagnose_writes_report_with_parameter_spreads() {
         .unwrap()
         .contains_key(refitted[0]["path"].as_str().unwrap()));
     assert!(v["timings"]["spread_s"].as_f64().unwrap() > 0.0);
+    // The paired loss and three held-out seeds by default: the refit's shrink
+    // carries a standard error.
+    assert_eq!(v["paired"].as_bool(), Some(true));
+    assert_eq!(v["held_out_seeds"].as_u64(), Some(3));
+    assert!(refitted[0]["shrink_std"]
+        .as_f64()
+        .is_some_and(|se| se >= 0.0));
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     for needle in [
         "± (Monte Carlo spread)",
@@ -298,6 +306,51 @@ fn diagnose_writes_report_with_parameter_spreads() {
         !report.contains("EchoPosition {"),
         "debug output in report.md"
     );
+    let out1 = dir.path().join("d1");
+    let o = usray(&[
+        "diagnose",
+        s,
+        "--measured",
+        refdir.join("bmode.npy").to_str().unwrap(),
+        "--iters",
+        "1",
+        "--confirm",
+        "1",
+        "--rays",
+        "5",
+        "--one-render",
+        "--held-out-seeds",
+        "1",
+        "--out",
+        out1.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out1.join("diagnosis.json")).unwrap())
+            .unwrap();
+    assert_eq!(v["paired"].as_bool(), Some(false));
+    assert_eq!(v["held_out_seeds"].as_u64(), Some(1));
+    // One held-out seed gives no standard error.
+    assert!(v["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|e| e["shrink_std"].is_null()));
+    // Settings that leave nothing to measure are refused, naming the flag.
+    let o = usray(&[
+        "diagnose",
+        s,
+        "--measured",
+        refdir.join("bmode.npy").to_str().unwrap(),
+        "--held-out-seeds",
+        "0",
+        "--out",
+        dir.path().join("d0").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--held-out-seeds"));
+    assert!(!dir.path().join("d0").exists(), "output written before refusing");
 }
 
 /// `usray fit --paired` fits the paired loss and records its second seed.

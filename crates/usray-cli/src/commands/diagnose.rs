@@ -23,6 +23,8 @@ pub struct DiagnoseArgs {
     pub rays: Option<usize>,
     /// Seed override.
     pub seed: Option<u64>,
+    /// Held-out seeds averaged over.
+    pub held_out_seeds: usize,
     /// The paired loss throughout.
     pub paired: bool,
 }
@@ -32,6 +34,10 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
     let scene = Scene::load(scene_path)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
     anyhow::ensure!(args.rays != Some(0), "--rays must be at least 1");
+    anyhow::ensure!(
+        args.held_out_seeds >= 1,
+        "--held-out-seeds must be at least 1"
+    );
     // Validates every named parameter against the scene before any work.
     super::calib::parse_params(&scene, &args.params)?;
     let measured_img = usray_optim::load_reference(measured, &scene)?;
@@ -41,6 +47,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         calibration_iters: args.iters,
         refit_iters: args.iters,
         confirm_top: args.confirm,
+        held_out_seeds: args.held_out_seeds,
         paired: args.paired,
         render: RenderOptions {
             threads: (common.threads > 0).then_some(common.threads),
@@ -114,8 +121,8 @@ fn report(
     )?;
     writeln!(r, "## Verdict: **{}**\n", d.verdict.effect)?;
     match d.verdict.effect.as_str() {
-        "none" => writeln!(r, "No candidate effect shrinks the gap on held-out data by the required share, and the calibrated model's held-out loss ({:.4e}) is within the Monte Carlo noise of the simulation ({:.4e}, the loss between two independent seeds of the calibrated model).\n", d.calibrated.loss_held_out, d.noise_loss)?,
-        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}) and no candidate effect shrinks it on held-out data by the required share.\n", d.calibrated.loss_held_out, d.noise_loss)?,
+        "none" => writeln!(r, "No candidate effect shrinks the gap on held-out data by the required share, and the calibrated model's held-out loss ({:.4e}) is within the Monte Carlo noise of the simulation ({:.4e}, the loss between independent seeds of the calibrated model; both averaged over {} held-out seeds).\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
+        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds) and no candidate effect shrinks it on held-out data by the required share.\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
         e => writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}).\n", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out)?,
     }
     if !d.verdict.alternatives.is_empty() {
@@ -139,9 +146,10 @@ fn report(
     writeln!(r, "\n±: the standard deviation the fitted value would have under the simulation's Monte Carlo noise (a linearised fit repeated on {} independent noise realisations, `usray_optim::parameter_spread`). It counts noise only: where parameters trade against each other, or the loss is biased, the error can be many times larger (docs/diagnosis.md, \"How well each parameter is determined\").", d.spread_pairs)?;
     writeln!(
         r,
-        "\nLoss {:.4e} on the fit's seed, {:.4e} held out (seed + 1); Monte Carlo noise level {:.4e}.{}\n",
+        "\nLoss {:.4e} on the fit's seed, {:.4e} held out (mean over {} other seeds); Monte Carlo noise level {:.4e}.{}\n",
         d.calibrated.loss,
         d.calibrated.loss_held_out,
+        d.held_out_seeds,
         d.noise_loss,
         if d.paired {
             " Every loss is the paired loss (`--paired`: two renders with independent seeds, unbiased in the simulation's variance in its ℓ2 term)."
@@ -161,7 +169,7 @@ fn report(
     }
     residual_kinds(&mut r, &d.residual)?;
     writeln!(r, "\n## 3–4. Candidate effects\n")?;
-    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data, for the refitted candidates.\n")?;
+    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences.\n", d.held_out_seeds)?;
     writeln!(
         r,
         "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | found |\n|---|---|---|---|---|---|---|---|"
@@ -184,7 +192,11 @@ fn report(
             e.score,
             e.gradient,
             e.loss_after.map_or("—".into(), |v| format!("{v:.4e}")),
-            e.shrink.map_or("—".into(), |v| format!("{v:.3}")),
+            match (e.shrink, e.shrink_std) {
+                (Some(v), Some(se)) => format!("{v:.3} ± {se:.3}"),
+                (Some(v), None) => format!("{v:.3}"),
+                _ => "—".into(),
+            },
             found.join(", ")
         )?;
     }

@@ -73,8 +73,10 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             confirm,
             rays,
             seed,
-            paired,
+            held_out_seeds,
+            one_render,
             common,
+            ..
         } => diagnose::run(
             scene,
             measured,
@@ -84,7 +86,8 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
                 confirm: *confirm,
                 rays: *rays,
                 seed: *seed,
-                paired: *paired,
+                held_out_seeds: *held_out_seeds,
+                paired: !*one_render,
             },
             common,
         ),
