@@ -170,8 +170,9 @@ pub enum Command {
         /// Adam iterations of the calibration and of each confirming refit.
         #[arg(long, default_value_t = 40)]
         iters: usize,
-        /// How many of the best-scored effects are confirmed by a refit.
-        #[arg(long, value_name = "N", default_value_t = 2)]
+        /// How many of the best-scored effects are confirmed by a refit (three:
+        /// on the full-size cylinder a sound-speed error scored third).
+        #[arg(long, value_name = "N", default_value_t = 3)]
         confirm: usize,
         /// Override the scene's `acquisition.rays_per_element`.
         #[arg(long, value_name = "N")]

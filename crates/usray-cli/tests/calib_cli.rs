@@ -350,7 +350,10 @@ fn diagnose_writes_report_with_parameter_spreads() {
     ]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--held-out-seeds"));
-    assert!(!dir.path().join("d0").exists(), "output written before refusing");
+    assert!(
+        !dir.path().join("d0").exists(),
+        "output written before refusing"
+    );
 }
 
 /// `usray fit --paired` fits the paired loss and records its second seed.
