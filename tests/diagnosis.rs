@@ -47,11 +47,8 @@ fn options(rays: usize, iters: usize) -> (BlindOptions, DiagnoseOptions) {
         DiagnoseOptions {
             calibration_iters: iters,
             refit_iters: iters,
-            // Two refits instead of three, and the one-render loss instead of
-            // the paired default (half the renders): CI time.
-            // `no_effect_names_no_false_effect` runs the paired loss too.
+            // Two refits instead of three: CI time.
             confirm_top: 2,
-            paired: false,
             render,
             ..Default::default()
         },

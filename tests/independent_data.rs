@@ -29,8 +29,6 @@ fn diagnose_ci(scene: &Scene, measured: &[f64]) -> Diagnosis {
         calibration_iters: 8,
         refit_iters: 8,
         confirm_top: 1,
-        // The one-render loss (half the renders of the paired default): CI time.
-        paired: false,
         render,
         ..Default::default()
     };

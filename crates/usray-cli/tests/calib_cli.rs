@@ -228,7 +228,7 @@ fn rendered(dir: &Path, scene: &str, seed: u64) -> std::path::PathBuf {
 /// `usray diagnose` writes every output; `diagnosis.json` gives each fitted
 /// parameter its spread (`params_std`) and each refit's shrink its standard
 /// error, and `report.md` shows them and the kinds of residual as tables (not
-/// debug output). `--one-render` and `--held-out-seeds` are honoured.
+/// debug output). `--paired` and `--held-out-seeds` are honoured.
 #[test]
 fn diagnose_writes_report_with_parameter_spreads() {
     let dir = tempfile::tempdir().unwrap();
@@ -287,9 +287,9 @@ fn diagnose_writes_report_with_parameter_spreads() {
         .unwrap()
         .contains_key(refitted[0]["path"].as_str().unwrap()));
     assert!(v["timings"]["spread_s"].as_f64().unwrap() > 0.0);
-    // The paired loss and three held-out seeds by default: the refit's shrink
-    // carries a standard error.
-    assert_eq!(v["paired"].as_bool(), Some(true));
+    // The one-render loss and three held-out seeds by default: the refit's
+    // shrink carries a standard error.
+    assert_eq!(v["paired"].as_bool(), Some(false));
     assert_eq!(v["held_out_seeds"].as_u64(), Some(3));
     assert!(refitted[0]["shrink_std"]
         .as_f64()
@@ -318,7 +318,7 @@ fn diagnose_writes_report_with_parameter_spreads() {
         "1",
         "--rays",
         "5",
-        "--one-render",
+        "--paired",
         "--held-out-seeds",
         "1",
         "--out",
@@ -329,7 +329,7 @@ fn diagnose_writes_report_with_parameter_spreads() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out1.join("diagnosis.json")).unwrap())
             .unwrap();
-    assert_eq!(v["paired"].as_bool(), Some(false));
+    assert_eq!(v["paired"].as_bool(), Some(true));
     assert_eq!(v["held_out_seeds"].as_u64(), Some(1));
     // One held-out seed gives no standard error.
     assert!(v["effects"]

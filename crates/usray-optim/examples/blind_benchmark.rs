@@ -1,7 +1,7 @@
 //! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
 //!
 //! ```text
-//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--one-render]
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired]
 //! ```
 //!
 //! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
@@ -11,9 +11,7 @@
 //! calibration and refits, and prints one line per draw and the summary. `SEED`
 //! (default 2026) is the master seed of the draws: another seed, other draws.
 //! `KIND,...` keeps only the draws of those kinds (e.g. `depth_gain`).
-//! The diagnosis uses the paired loss (`DiagnoseOptions::paired`, the default);
-//! `--one-render` the paper's one-render loss (`--paired` is accepted and
-//! changes nothing).
+//! `--paired` diagnoses with the paired loss (`DiagnoseOptions::paired`).
 //!
 //! For each rightly named effect it also prints how far each parameter of the
 //! named refit lies from the truth of the hidden scene, in units of its reported
@@ -28,13 +26,12 @@ use usray_transport::{RenderOptions, Scene};
 
 fn main() {
     let all: Vec<String> = std::env::args().skip(1).collect();
-    let paired = !all.iter().any(|a| a == "--one-render");
-    let args: Vec<String> = all
-        .into_iter()
-        .filter(|a| a != "--paired" && a != "--one-render")
-        .collect();
+    let paired = all.iter().any(|a| a == "--paired");
+    let args: Vec<String> = all.into_iter().filter(|a| a != "--paired").collect();
     if args.len() < 4 {
-        eprintln!("usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--one-render]");
+        eprintln!(
+            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired]"
+        );
         std::process::exit(2);
     }
     let parse = |i: usize| -> usize {

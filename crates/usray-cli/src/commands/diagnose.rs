@@ -125,6 +125,14 @@ fn report(
         "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds) and no candidate effect shrinks it on held-out data by the required share.\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
         e => writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}).\n", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out)?,
     }
+    if let Some(named) = d
+        .effects
+        .iter()
+        .find(|e| e.effect == d.verdict.effect && e.shrink == Some(d.verdict.shrink))
+        .filter(|e| e.at_range_bound())
+    {
+        writeln!(r, "**At the bound of its range:** the refit left `{}` at {:.4e}, the edge of the range [{:.4e}, {:.4e}] it may take; the data may want a stronger effect than the range allows, so this value is a limit, not an estimate.\n", named.path, named.params[&named.path], named.range[0], named.range[1])?;
+    }
     if !d.verdict.alternatives.is_empty() {
         let alt: Vec<String> = d
             .verdict
@@ -175,7 +183,7 @@ fn report(
         "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | found |\n|---|---|---|---|---|---|---|---|"
     )?;
     for e in &d.effects {
-        let found: Vec<String> = e
+        let mut found: Vec<String> = e
             .params
             .iter()
             .map(|(p, v)| match e.params_std.get(p).copied() {
@@ -183,6 +191,12 @@ fn report(
                 None => format!("`{p}` = {v:.4e}"),
             })
             .collect();
+        if e.at_range_bound() {
+            found.push(format!(
+                "(**`{}` at the bound of its range [{:.3e}, {:.3e}]**)",
+                e.path, e.range[0], e.range[1]
+            ));
+        }
         writeln!(
             r,
             "| {} | `{}` | {:.4e} | {:.3e} | {:.3e} | {} | {} | {} |",

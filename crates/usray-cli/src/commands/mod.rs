@@ -74,9 +74,8 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             rays,
             seed,
             held_out_seeds,
-            one_render,
+            paired,
             common,
-            ..
         } => diagnose::run(
             scene,
             measured,
@@ -87,7 +86,7 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
                 rays: *rays,
                 seed: *seed,
                 held_out_seeds: *held_out_seeds,
-                paired: !*one_render,
+                paired: *paired,
             },
             common,
         ),
