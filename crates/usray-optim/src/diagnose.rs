@@ -834,12 +834,12 @@ pub fn diagnose(
     // Held-out losses and Monte Carlo noise level of the calibrated model.
     let t = Instant::now();
     let held = held_out(&cal_scene, measured, &renders_held, opts.paired)?;
-    let held_loss = mean(&held.iter().map(|e| e.loss).collect::<Vec<_>>());
+    let held_loss = mean_loss(&held);
     // The noise level: the same loss with the calibrated model's own image (seed
     // s) in the place of the data.
     let noise_loss = if opts.paired {
         let own = held_out(&cal_scene, &cal_eval.image.data, &renders_held, true)?;
-        mean(&own.iter().map(|e| e.loss).collect::<Vec<_>>())
+        mean_loss(&own)
     } else {
         mean(
             &held
@@ -939,7 +939,7 @@ pub fn diagnose(
         )?;
         let fitted = obj.scene_at(&r.final_params)?;
         let after = held_out(&fitted, measured, &renders_held, opts.paired)?;
-        let after_loss = mean(&after.iter().map(|e| e.loss).collect::<Vec<_>>());
+        let after_loss = mean_loss(&after);
         let shrink = 1.0 - after_loss / held_loss;
         // Standard error of the shrink from the per-seed differences (common
         // random numbers: each seed renders both models).
@@ -1087,4 +1087,9 @@ fn held_out(
 /// Arithmetic mean (0 for none).
 fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// Mean loss of several held-out evaluations.
+fn mean_loss(evals: &[Evaluation]) -> f64 {
+    mean(&evals.iter().map(|e| e.loss).collect::<Vec<_>>())
 }
