@@ -182,8 +182,9 @@ pub enum Command {
         #[arg(long)]
         seed: Option<u64>,
         /// Independent seeds on which every held-out loss (and the noise level)
-        /// is averaged; shrinks carry a standard error when at least 2.
-        #[arg(long, value_name = "N", default_value_t = 3)]
+        /// is averaged; shrinks and excesses over the null refit carry a
+        /// standard error when at least 2.
+        #[arg(long, value_name = "N", default_value_t = 6)]
         held_out_seeds: usize,
         /// Use the paired loss throughout (every loss from two renders with
         /// independent seeds, unbiased in the simulation's Monte Carlo variance in

@@ -287,18 +287,29 @@ fn diagnose_writes_report_with_parameter_spreads() {
         .unwrap()
         .contains_key(refitted[0]["path"].as_str().unwrap()));
     assert!(v["timings"]["spread_s"].as_f64().unwrap() > 0.0);
-    // The one-render loss and three held-out seeds by default: the refit's
-    // shrink carries a standard error.
+    // The one-render loss and six held-out seeds by default: the refit's
+    // shrink and its excess over the null refit carry standard errors, and
+    // every held-out loss is listed seed by seed.
     assert_eq!(v["paired"].as_bool(), Some(false));
-    assert_eq!(v["held_out_seeds"].as_u64(), Some(3));
-    assert!(refitted[0]["shrink_std"]
-        .as_f64()
-        .is_some_and(|se| se >= 0.0));
+    assert_eq!(v["held_out_seeds"].as_u64(), Some(6));
+    for key in ["shrink_std", "excess", "excess_std"] {
+        assert!(refitted[0][key].is_f64(), "{key} missing");
+    }
+    for losses in [
+        &refitted[0]["held_out_losses"],
+        &v["calibrated"]["held_out_losses"],
+        &v["null_refit"]["held_out_losses"],
+    ] {
+        assert_eq!(losses.as_array().map(Vec::len), Some(6));
+    }
+    assert!(v["null_refit"]["shrink"].is_f64());
+    assert_eq!(v["rule"]["min_excess"].as_f64(), Some(0.2));
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     for needle in [
         "± (Monte Carlo spread)",
         "| echo position in |",
         "| texture in |",
+        "| excess | gap explained |",
     ] {
         assert!(report.contains(needle), "report.md lacks `{needle}`");
     }

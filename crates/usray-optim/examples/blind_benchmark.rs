@@ -119,15 +119,19 @@ fn main() {
             .iter()
             .map(|e| {
                 format!(
-                    "{}:{:.2e}/{}",
+                    "{}:{:.2e}/{}/{}",
                     e.effect,
                     e.score,
-                    e.shrink.map_or("-".into(), |s| format!("{s:.2}"))
+                    e.shrink.map_or("-".into(), |s| format!("{s:.2}")),
+                    e.excess.map_or("-".into(), |x| format!(
+                        "{x:+.3}±{:.3}",
+                        e.excess_std.unwrap_or(f64::NAN)
+                    ))
                 )
             })
             .collect();
         println!(
-            "draw {i:2}: {:<17} strength {:+.4e}  verdict {:<17} shrink {:.2}  cal {:.3e} held {:.3e} noise {:.3e}  {}  [{}]  {:.0} s",
+            "draw {i:2}: {:<17} strength {:+.4e}  verdict {:<17} shrink {:.2}  cal {:.3e} held {:.3e} noise {:.3e} null {:+.3}  {}  [{}]  {:.0} s",
             d.kind,
             d.strength,
             r.verdict.effect,
@@ -135,6 +139,7 @@ fn main() {
             r.calibrated.loss,
             r.calibrated.loss_held_out,
             r.noise_loss,
+            r.null_refit.shrink,
             if right { "right" } else if false_effect { "FALSE EFFECT" } else { "wrong" },
             ranked.join(" "),
             r.timings.calibration_s

@@ -121,9 +121,20 @@ fn report(
     )?;
     writeln!(r, "## Verdict: **{}**\n", d.verdict.effect)?;
     match d.verdict.effect.as_str() {
-        "none" => writeln!(r, "No candidate effect shrinks the gap on held-out data by the required share, and the calibrated model's held-out loss ({:.4e}) is within the Monte Carlo noise of the simulation ({:.4e}, the loss between independent seeds of the calibrated model; both averaged over {} held-out seeds).\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
-        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds) and no candidate effect shrinks it on held-out data by the required share.\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
-        e => writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}).\n", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out)?,
+        "none" => writeln!(r, "No candidate effect shrinks the held-out loss significantly more than refitting the base parameters alone does, and the calibrated model's held-out loss ({:.4e}) is within the Monte Carlo noise of the simulation ({:.4e}, the loss between independent seeds of the calibrated model; both averaged over {} held-out seeds).\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
+        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds) and no candidate effect removes enough of it beyond what refitting the base parameters alone does.\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
+        e => {
+            writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone shrinks it by {:.0}%.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, 100.0 * d.null_refit.shrink)?;
+            if let Some(g) = d
+                .effects
+                .iter()
+                .find(|x| x.effect == e && x.shrink == Some(d.verdict.shrink))
+                .and_then(|x| x.gap_explained)
+            {
+                writeln!(r, "It removes {:.0}% of the gap above the Monte Carlo noise level ({:.4e}).", 100.0 * g, d.noise_loss)?;
+            }
+            writeln!(r)?
+        }
     }
     if let Some(named) = d
         .effects
@@ -177,10 +188,10 @@ fn report(
     }
     residual_kinds(&mut r, &d.residual)?;
     writeln!(r, "\n## 3–4. Candidate effects\n")?;
-    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences.\n", d.held_out_seeds)?;
+    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error; gap explained: the share of the gap above the noise level the refit removes. An effect is named when its excess is at least {:.2} and {:.0} standard errors, and, where a real gap remains (held-out loss above {:.1} × the noise level), it explains at least {:.0}% of the gap.\n", d.held_out_seeds, d.null_refit.shrink, d.rule.min_excess, d.rule.min_excess_z, d.rule.noise_factor, 100.0 * d.rule.min_gap_explained)?;
     writeln!(
         r,
-        "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | found |\n|---|---|---|---|---|---|---|---|"
+        "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | excess | gap explained | found |\n|---|---|---|---|---|---|---|---|---|---|"
     )?;
     for e in &d.effects {
         let mut found: Vec<String> = e
@@ -199,7 +210,7 @@ fn report(
         }
         writeln!(
             r,
-            "| {} | `{}` | {:.4e} | {:.3e} | {:.3e} | {} | {} | {} |",
+            "| {} | `{}` | {:.4e} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} |",
             e.effect,
             e.path,
             e.onset,
@@ -211,6 +222,12 @@ fn report(
                 (Some(v), None) => format!("{v:.3}"),
                 _ => "—".into(),
             },
+            match (e.excess, e.excess_std) {
+                (Some(v), Some(se)) => format!("{v:+.3} ± {se:.3}"),
+                (Some(v), None) => format!("{v:+.3}"),
+                _ => "—".into(),
+            },
+            or_dash(e.gap_explained, |g| format!("{g:.2}")),
             found.join(", ")
         )?;
     }
