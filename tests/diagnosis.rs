@@ -68,6 +68,23 @@ fn diagnose_draw(i: usize, kind: &str) -> (Scene, Draw, Diagnosis) {
     (base, drawn, r)
 }
 
+/// What scoring a candidate against `data` needs: the measured image (the blind
+/// benchmark's noise, CI size), the base scene's render options and its loss.
+fn scoring_setup(base: &Scene, data: &Draw) -> (Vec<f64>, RenderOptions, f64) {
+    let (b, d) = options(12, 20);
+    let measured = measured_image(data, &b).unwrap();
+    let render = RenderOptions {
+        seed: Some(base.acquisition.seed),
+        ..d.render
+    };
+    let base_loss = Objective::new(base.clone(), measured.clone(), vec![], render.clone())
+        .unwrap()
+        .value(&[])
+        .unwrap()
+        .loss;
+    (measured, render, base_loss)
+}
+
 /// The paper's case: data from a ring whose wall is a draw of 0.25–0.4 × the
 /// radius, diagnosed against the plain cylinder. Measured: verdict
 /// `wall_thickness`, held-out shrink 0.68, wall 1.895 mm found for 1.893 mm, radius
@@ -260,7 +277,6 @@ fn unmodelled_wire_is_unexplained() {
 fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
     let _serial = one_at_a_time();
     let base = base();
-    let (b, d) = options(12, 20);
     let c0 = base.medium.sound_speed_m_s;
     let mut scene = base.clone();
     scene.imaging.sound_speed_m_s = Some(c0);
@@ -271,16 +287,7 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
         scene,
         seed: 4242,
     };
-    let measured = measured_image(&data, &b).unwrap();
-    let render = RenderOptions {
-        seed: Some(base.acquisition.seed),
-        ..d.render
-    };
-    let base_loss = Objective::new(base.clone(), measured.clone(), vec![], render.clone())
-        .unwrap()
-        .value(&[])
-        .unwrap()
-        .loss;
+    let (measured, render, base_loss) = scoring_setup(&base, &data);
     let speed = catalogue(&base)
         .into_iter()
         .find(|c| c.effect == "sound_speed")
@@ -322,7 +329,6 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
 fn attenuation_inside_the_object_is_scored_inside_its_basin() {
     let _serial = one_at_a_time();
     let base = base();
-    let (b, d) = options(12, 20);
     let alpha = 0.66;
     let mut scene = base.clone();
     scene.medium.attenuation_db_cm_mhz = alpha;
@@ -335,16 +341,7 @@ fn attenuation_inside_the_object_is_scored_inside_its_basin() {
         scene,
         seed: 4243,
     };
-    let measured = measured_image(&data, &b).unwrap();
-    let render = RenderOptions {
-        seed: Some(base.acquisition.seed),
-        ..d.render
-    };
-    let base_loss = Objective::new(base.clone(), measured.clone(), vec![], render.clone())
-        .unwrap()
-        .value(&[])
-        .unwrap()
-        .loss;
+    let (measured, render, base_loss) = scoring_setup(&base, &data);
     let scores: Vec<(Candidate, f64, f64)> = catalogue(&base)
         .into_iter()
         .filter(|c| c.effect == "attenuation" || c.effect == "depth_gain")

@@ -1068,14 +1068,15 @@ pub fn diagnose(
     // Step 4: refit the leading candidates; held-out shrink.
     let t = Instant::now();
     // The control: the base parameters alone, refitted as long as each candidate.
+    // Every refit's objective: on the calibration's seed, from a fresh Adam.
+    let refit_objective = |scene: Scene, specs: Vec<ParamSpec>| {
+        Ok::<_, OptimError>(
+            Objective::new(scene, measured.to_vec(), specs, render_s.clone())?
+                .with_pairing(opts.paired),
+        )
+    };
     progress("refitting the base parameters alone (the null refit)");
-    let mut null_obj = Objective::new(
-        cal_scene.clone(),
-        measured.to_vec(),
-        specs.clone(),
-        render_s.clone(),
-    )?
-    .with_pairing(opts.paired);
+    let mut null_obj = refit_objective(cal_scene.clone(), specs.clone())?;
     let null_fit = fit(
         &mut null_obj,
         &cal.final_params,
@@ -1135,8 +1136,7 @@ pub fn diagnose(
             max: c.range.1,
         }];
         refit_specs.extend(specs.iter().cloned());
-        let mut obj = Objective::new(on, measured.to_vec(), refit_specs, render_s.clone())?
-            .with_pairing(opts.paired);
+        let mut obj = refit_objective(on, refit_specs)?;
         let x0 = obj.initial_physical();
         let r = fit(
             &mut obj,

@@ -124,7 +124,7 @@ fn report(
         "none" => writeln!(r, "No candidate effect shrinks the held-out loss significantly more than refitting the base parameters alone does, and the calibrated model's held-out loss ({:.4e}) is within the Monte Carlo noise of the simulation ({:.4e}, the loss between independent seeds of the calibrated model; both averaged over {} held-out seeds).\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
         "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds) and no candidate effect removes enough of it beyond what refitting the base parameters alone does.\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
         e => {
-            writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone shrinks it by {:.0}%.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, 100.0 * d.null_refit.shrink)?;
+            writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {:+.0}%.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, -100.0 * d.null_refit.shrink)?;
             if let Some(g) = d
                 .effects
                 .iter()
