@@ -145,6 +145,7 @@ fn main() {
             r.timings.calibration_s
                 + r.timings.scoring_s
                 + r.timings.refits_s
+                + r.timings.null_refit_s
                 + r.timings.held_out_s
                 + r.timings.spread_s
         );

@@ -797,8 +797,10 @@ pub struct Timings {
     pub calibration_s: f64,
     /// Step 3, scoring every candidate.
     pub scoring_s: f64,
-    /// Step 3–4, the refits and their held-out evaluation.
+    /// Step 3–4, the candidates' refits and their held-out evaluation.
     pub refits_s: f64,
+    /// Step 4's control, the null refit and its held-out evaluation.
+    pub null_refit_s: f64,
     /// Noise level and held-out evaluation of the calibrated model.
     pub held_out_s: f64,
     /// How well the calibration and each refit determine their parameters
@@ -1107,6 +1109,8 @@ pub fn diagnose(
     } else {
         &held_losses
     };
+    timings.null_refit_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
     let null_refit = NullRefit {
         loss_after: mean(&null_losses),
         shrink: null_shrink,
