@@ -45,7 +45,7 @@
 //!    **The null refit** is the control: the base parameters alone, refitted
 //!    from the calibrated point for as many iterations as each candidate's
 //!    refit. Continuing the calibration alone may shrink the held-out loss (by
-//!    up to 0.09 on the blind benchmark, where a calibration had not
+//!    up to 0.18 on the blind benchmark, where a calibration had not
 //!    converged), so each refit's
 //!    *excess* over it — `(null_after − loss_after) / loss_calibrated`, seed by
 //!    seed, with its standard error — is what the effect itself explains (the
@@ -62,8 +62,8 @@
 //!    standard errors, and — where the gap is real — it removes at least
 //!    [`VerdictRule::min_gap_explained`] of the gap above the noise level
 //!    (`gap_explained = (loss_calibrated − loss_after) / (loss_calibrated −
-//!    noise)`; on the blind benchmark 0.68–1.13 for the catalogue's effects,
-//!    at most 0.18 for an out-of-catalogue wire). The qualifying effect with
+//!    noise)`; on the blind benchmark 0.63–1.13 for every named catalogue effect,
+//!    at most 0.21 for an out-of-catalogue wire). The qualifying effect with
 //!    the largest shrink is named — where several come within [`TIE_MARGIN`]
 //!    of it, the one with the highest score (it explains the gap along its own
 //!    parameter, without the base parameters' help), the others listed as
@@ -568,7 +568,7 @@ pub struct VerdictRule {
     /// refit's ([`Diagnosis::null_refit`]) by at least this share of the held-out
     /// calibrated loss (its *excess*, [`EffectResult::excess`]; default 0.2: on
     /// the blind benchmark's no-effect and out-of-catalogue draws candidates
-    /// beat the null refit by up to 0.16, the catalogue's effects by 0.26–0.91).
+    /// beat the null refit by up to 0.17, at up to 8 standard errors).
     pub min_excess: f64,
     /// … and by at least this many of the excess's standard errors (default 3).
     pub min_excess_z: f64,
@@ -675,9 +675,9 @@ pub struct Calibrated {
 /// The null refit: the base free parameters alone, refitted from the calibrated
 /// point for as many iterations as each candidate's refit. Every refit also
 /// continues the calibration of the base parameters, and that alone may shrink
-/// the held-out loss (by up to 0.09 on the blind benchmark's volume-scattering
-/// draws, whose calibration had not converged); an effect must beat this
-/// control ([`EffectResult::excess`]).
+/// the held-out loss (by up to 0.18 on the blind benchmark, on draws whose
+/// calibration had not converged); an effect must beat this control
+/// ([`EffectResult::excess`]).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct NullRefit {
     /// Held-out loss after the null refit, averaged over the held-out seeds.
