@@ -121,8 +121,8 @@ fn report(
     )?;
     writeln!(r, "## Verdict: **{}**\n", d.verdict.effect)?;
     match d.verdict.effect.as_str() {
-        "none" => writeln!(r, "No candidate effect shrinks the held-out loss significantly more than refitting the base parameters alone does, and the calibrated model's held-out loss ({:.4e}) is within the Monte Carlo noise of the simulation ({:.4e}, the loss between independent seeds of the calibrated model; both averaged over {} held-out seeds).\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
-        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds) and no candidate effect removes enough of it beyond what refitting the base parameters alone does.\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds)?,
+        "none" => writeln!(r, "No candidate effect shrinks the held-out loss by {:.0}% of it more than refitting the base parameters alone does, and the calibrated model's held-out loss ({:.4e}) is within {:.1}× the Monte Carlo noise of the simulation ({:.4e}, the loss between independent seeds of the calibrated model; both averaged over {} held-out seeds).\n", 100.0 * d.rule.min_excess, d.calibrated.loss_held_out, d.rule.noise_factor, d.noise_loss, d.held_out_seeds)?,
+        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds), and no candidate effect both shrinks the held-out loss by {:.0}% of it more than refitting the base parameters alone does and removes {:.0}% of the gap above the noise level.\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds, 100.0 * d.rule.min_excess, 100.0 * d.rule.min_gap_explained)?,
         e => {
             writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {:+.0}%.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, -100.0 * d.null_refit.shrink)?;
             if let Some(g) = d
