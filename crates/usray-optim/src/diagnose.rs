@@ -995,7 +995,8 @@ pub fn diagnose(
     // Held-out losses and Monte Carlo noise level of the calibrated model.
     let t = Instant::now();
     let held = held_out(&cal_scene, measured, &renders_held, opts.paired)?;
-    let held_loss = mean_loss(&held);
+    let held_losses: Vec<f64> = held.iter().map(|e| e.loss).collect();
+    let held_loss = mean(&held_losses);
     // The noise level: the same loss with the calibrated model's own image (seed
     // s) in the place of the data.
     let noise_loss = if opts.paired {
@@ -1095,7 +1096,6 @@ pub fn diagnose(
         opts.paired,
     )?;
     let null_losses: Vec<f64> = null_after.iter().map(|e| e.loss).collect();
-    let held_losses: Vec<f64> = held.iter().map(|e| e.loss).collect();
     // Per-seed shrinks relative to the calibrated held-out mean (common random
     // numbers: each seed renders every model).
     let relative = |a: &[f64], b: &[f64]| -> Vec<f64> {
