@@ -1,7 +1,7 @@
 //! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
 //!
 //! ```text
-//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired]
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X]
 //! ```
 //!
 //! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
@@ -12,6 +12,10 @@
 //! (default 2026) is the master seed of the draws: another seed, other draws.
 //! `KIND,...` keeps only the draws of those kinds (e.g. `depth_gain`).
 //! `--paired` diagnoses with the paired loss (`DiagnoseOptions::paired`).
+//! `--data-rays=N` renders the measured data with `N` rays per element instead
+//! of `RAYS` (less Monte Carlo noise in the data, as in a real measurement);
+//! `--noise-db=X` sets the measurement noise, dB below the largest channel
+//! sample (default 60).
 //!
 //! For each rightly named effect it also prints how far each parameter of the
 //! named refit lies from the truth of the hidden scene, in units of its reported
@@ -27,7 +31,30 @@ use usray_transport::{RenderOptions, Scene};
 fn main() {
     let all: Vec<String> = std::env::args().skip(1).collect();
     let paired = all.iter().any(|a| a == "--paired");
-    let args: Vec<String> = all.into_iter().filter(|a| a != "--paired").collect();
+    // `--data-rays=N`: rays per element of the measured data (default RAYS).
+    let data_rays: Option<usize> = all.iter().find_map(|a| {
+        a.strip_prefix("--data-rays=").map(|n| {
+            n.parse().unwrap_or_else(|_| {
+                eprintln!("--data-rays needs a whole number, found `{n}`");
+                std::process::exit(2)
+            })
+        })
+    });
+    // `--noise-db=X`: measurement noise, dB below the largest channel sample.
+    let noise_db: Option<f64> = all.iter().find_map(|a| {
+        a.strip_prefix("--noise-db=").map(|n| {
+            n.parse().unwrap_or_else(|_| {
+                eprintln!("--noise-db needs a number, found `{n}`");
+                std::process::exit(2)
+            })
+        })
+    });
+    let args: Vec<String> = all
+        .into_iter()
+        .filter(|a| {
+            a != "--paired" && !a.starts_with("--data-rays=") && !a.starts_with("--noise-db=")
+        })
+        .collect();
     if args.len() < 4 {
         eprintln!(
             "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired]"
@@ -54,7 +81,11 @@ fn main() {
         ..Default::default()
     };
     let mut bopts = BlindOptions {
-        render: render.clone(),
+        render: RenderOptions {
+            rays_per_element: Some(data_rays.unwrap_or(rays)),
+            ..Default::default()
+        },
+        noise_db: noise_db.unwrap_or(BlindOptions::default().noise_db),
         ..Default::default()
     };
     if args.len() > 5 {
