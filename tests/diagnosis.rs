@@ -85,6 +85,51 @@ fn scoring_setup(base: &Scene, data: &Draw) -> (Vec<f64>, RenderOptions, f64) {
     (measured, render, base_loss)
 }
 
+/// Every candidate of the catalogue is a model extension whose parameter at its
+/// null gives back the base model (issue 6): switched on at [`Candidate::null`],
+/// the scene renders the base scene's channel data bit for bit (same seed). A
+/// wall has no null thickness (its null is the solid cylinder), and says so.
+#[test]
+fn every_candidate_at_its_null_renders_the_base_model() {
+    let base = base();
+    let opts = RenderOptions {
+        rays_per_element: Some(4),
+        ..Default::default()
+    };
+    let (reference, _) = usray::transport::render(&base, &opts).unwrap();
+    assert!(reference.samples.iter().any(|v| *v != 0.0));
+    let differing_samples = |scene: &Scene| {
+        let (ch, _) = usray::transport::render(scene, &opts).unwrap();
+        ch.samples
+            .iter()
+            .zip(&reference.samples)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count()
+    };
+    let candidates = catalogue(&base);
+    assert!(candidates.len() >= 6, "{candidates:?}");
+    for c in &candidates {
+        let Some(null) = c.null else {
+            assert_eq!(c.effect, "wall_thickness", "only a wall lacks a null");
+            continue;
+        };
+        let at_null = differing_samples(&c.switched_on(&base, null).unwrap());
+        assert_eq!(
+            at_null, 0,
+            "{} ({} = {null}): {at_null} samples differ from the base model",
+            c.effect, c.path
+        );
+        // The control: a tenth of the range away from the null, it does differ.
+        let away = null + 0.1 * (c.range.1 - c.range.0);
+        let switched = differing_samples(&c.switched_on(&base, away).unwrap());
+        assert!(
+            switched > 0,
+            "{} = {away} renders as the base model",
+            c.path
+        );
+    }
+}
+
 /// The paper's case: data from a ring whose wall is a draw of 0.25–0.4 × the
 /// radius, diagnosed against the plain cylinder. Measured: verdict
 /// `wall_thickness`, held-out shrink 0.68, wall 1.895 mm found for 1.893 mm, radius

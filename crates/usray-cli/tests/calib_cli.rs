@@ -303,13 +303,27 @@ fn diagnose_writes_report_with_parameter_spreads() {
         assert_eq!(losses.as_array().map(Vec::len), Some(6));
     }
     assert!(v["null_refit"]["shrink"].is_f64());
+    // Each effect states its null; a refitted one with a null and a spread its
+    // limit of detection, three spreads.
+    let path = refitted[0]["path"].as_str().unwrap();
+    assert!(refitted[0].get("null").is_some() && refitted[0].get("detection_limit").is_some());
+    if let (Some(limit), Some(spread)) = (
+        refitted[0]["detection_limit"].as_f64(),
+        refitted[0]["params_std"][path].as_f64(),
+    ) {
+        assert!(refitted[0]["null"].is_f64());
+        assert!(
+            (limit - 3.0 * spread).abs() <= 1e-12 * limit,
+            "{limit} vs {spread}"
+        );
+    }
     assert_eq!(v["rule"]["min_excess"].as_f64(), Some(0.2));
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     for needle in [
         "± (Monte Carlo spread)",
         "| echo position in |",
         "| texture in |",
-        "| excess | gap explained |",
+        "| excess | gap explained | limit of detection |",
     ] {
         assert!(report.contains(needle), "report.md lacks `{needle}`");
     }

@@ -94,7 +94,7 @@ pub const SCATTERER_DENSITY_PER_MM3: f64 = 5.0;
 /// Scoring renders the loss at a candidate's Newton step only when the quadratic
 /// model predicts that the step cuts at least this fraction of the calibrated
 /// loss; below it the prediction is the score (a fraction far under
-/// [`DiagnoseOptions::min_shrink`]'s default 0.2).
+/// [`VerdictRule::min_excess`]'s default 0.2).
 pub const MIN_CHECKED_REDUCTION: f64 = 0.03;
 
 /// At most this many halvings of a candidate's Newton step in its scoring
@@ -144,6 +144,11 @@ pub struct Candidate {
     /// Whether the parameter may move either way from its null (sound speed,
     /// depth gain) or only up (thickness, attenuation, scattering).
     pub two_sided: bool,
+    /// The parameter's *null*: the value at which the effect is off and the
+    /// scene renders as the base model, bit for bit (checked in
+    /// `tests/diagnosis.rs`). `None` for a wall, whose null — a solid
+    /// cylinder — is a change of structure, not a thickness.
+    pub null: Option<f64>,
     /// Other scene values set with the switch (e.g. the scatterer density).
     pub fixed: Vec<(String, f64)>,
     /// Learning rate of the strength in a confirming refit, in fractions of
@@ -243,6 +248,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                     onsets,
                     range,
                     two_sided: false,
+                    null: None,
                     fixed: vec![],
                     learning_rate: (0.25 * dt / (range.1 - range.0)).min(EFFECT_LEARNING_RATE),
                 });
@@ -256,6 +262,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             onsets: vec![0.0],
             range: (0.0, 2.0),
             two_sided: false,
+            null: Some(0.0),
             fixed: vec![],
             learning_rate: EFFECT_LEARNING_RATE,
         });
@@ -279,6 +286,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 onsets: vec![0.0],
                 range: (0.0, 2.0),
                 two_sided: false,
+                null: Some(0.0),
                 fixed: vec![],
                 learning_rate: EFFECT_LEARNING_RATE,
             });
@@ -296,6 +304,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 onsets: vec![0.035],
                 range: (0.0, 0.7),
                 two_sided: false,
+                null: Some(0.0),
                 fixed: vec![(
                     format!("materials.{m}.scatterer_density_per_mm3"),
                     SCATTERER_DENSITY_PER_MM3,
@@ -325,6 +334,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 .collect(),
             range: (0.93 * c_img, 1.07 * c_img),
             two_sided: true,
+            null: Some(c_img),
             fixed: vec![("imaging.sound_speed_m_s".into(), c_img)],
             learning_rate: EFFECT_LEARNING_RATE,
         });
@@ -338,6 +348,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         onsets: vec![cycles],
         range: (0.5 * cycles, 3.0 * cycles),
         two_sided: true,
+        null: Some(cycles),
         fixed: vec![],
         learning_rate: EFFECT_LEARNING_RATE,
     });
@@ -348,6 +359,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             onsets: vec![0.0],
             range: (-3.0, 3.0),
             two_sided: true,
+            null: Some(0.0),
             fixed: vec![],
             learning_rate: EFFECT_LEARNING_RATE,
         });
@@ -706,6 +718,9 @@ pub struct EffectResult {
     pub onset: f64,
     /// Admissible range `[min, max]` of the effect parameter in its refit.
     pub range: [f64; 2],
+    /// The effect parameter's null, where the effect is off ([`Candidate::null`];
+    /// `None` for a wall).
+    pub null: Option<f64>,
     /// `∂L/∂θ` of the effect parameter at its onset.
     pub gradient: f64,
     /// Loss with the effect at its onset.
@@ -741,6 +756,13 @@ pub struct EffectResult {
     /// deviation, as [`Calibrated::params_std`]; the fixed settings of the
     /// effect are absent).
     pub params_std: BTreeMap<String, Option<f64>>,
+    /// The smallest departure of the effect parameter from its null that these
+    /// data resolve: [`DETECTION_LIMIT_SPREADS`] × the refit's Monte Carlo
+    /// spread of it, in the parameter's unit. An effect weaker than this could
+    /// be present and go unnamed. A lower bound: the spread counts Monte Carlo
+    /// noise only (absent when not refitted, without a null, or when the
+    /// parameter is not determined).
+    pub detection_limit: Option<f64>,
 }
 
 impl EffectResult {
@@ -755,11 +777,11 @@ impl EffectResult {
     /// let mut e = EffectResult {
     ///     effect: "depth_gain".into(),
     ///     path: "acquisition.depth_gain_db_per_cm".into(),
-    ///     score: 0.2, onset: 0.0, range: [-3.0, 3.0], gradient: -1e-3,
+    ///     score: 0.2, onset: 0.0, range: [-3.0, 3.0], null: Some(0.0), gradient: -1e-3,
     ///     loss_onset: 1e-2, loss_after: Some(7e-3), shrink: Some(0.3),
     ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01),
     ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
-    ///     params: BTreeMap::new(), params_std: BTreeMap::new(),
+    ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None,
     /// };
     /// e.params.insert(e.path.clone(), 2.999);
     /// assert!(e.at_range_bound());
@@ -773,7 +795,43 @@ impl EffectResult {
             .get(&self.path)
             .is_some_and(|v| *v <= lo + margin || *v >= hi - margin)
     }
+
+    /// How far the refit moved the effect parameter from its null, in its
+    /// Monte Carlo spreads: `(found − null) / spread`; `None` when not
+    /// refitted, without a null or spread. `|z|` below
+    /// [`DETECTION_LIMIT_SPREADS`] means these data do not tell the effect
+    /// from its absence by its parameter.
+    ///
+    /// ```
+    /// use std::collections::BTreeMap;
+    /// use usray_optim::EffectResult;
+    /// let path = "acquisition.depth_gain_db_per_cm".to_string();
+    /// let e = EffectResult {
+    ///     effect: "depth_gain".into(), path: path.clone(), score: 0.1, onset: 0.0,
+    ///     range: [-3.0, 3.0], null: Some(0.0), gradient: -1e-3, loss_onset: 1e-2,
+    ///     loss_after: Some(9e-3), shrink: Some(0.1), shrink_std: Some(0.01),
+    ///     excess: Some(0.05), excess_std: Some(0.01), gap_explained: None,
+    ///     held_out_losses: vec![9e-3],
+    ///     params: BTreeMap::from([(path.clone(), 1.5)]),
+    ///     params_std: BTreeMap::from([(path, Some(0.75))]),
+    ///     detection_limit: Some(2.25),
+    /// };
+    /// // Found +1.5 dB/cm at a spread of 0.75: two spreads from no gain.
+    /// assert_eq!(e.null_z(), Some(2.0));
+    /// ```
+    pub fn null_z(&self) -> Option<f64> {
+        let found = self.params.get(&self.path)?;
+        let spread = (*self.params_std.get(&self.path)?)?;
+        Some((found - self.null?) / spread)
+    }
 }
+
+/// How many Monte Carlo spreads of an effect parameter make its limit of
+/// detection ([`EffectResult::detection_limit`]): 3, the analytical chemists'
+/// convention — the limit of detection is the blank's mean plus three of its
+/// standard deviations (IUPAC; Long & Winefordner, *Anal. Chem.* 55, 712A,
+/// 1983), which a Gaussian estimate exceeds by chance with probability 0.13%.
+pub const DETECTION_LIMIT_SPREADS: f64 = 3.0;
 
 /// The verdict.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -870,11 +928,11 @@ pub struct Diagnosis {
 /// use std::collections::BTreeMap;
 /// use usray_optim::{name_effect, EffectResult, VerdictRule};
 /// let refit = |score: f64, shrink: f64, excess: f64, gap: f64| EffectResult {
-///     effect: "e".into(), path: "p".into(), score, onset: 0.0, range: [0.0, 1.0],
+///     effect: "e".into(), path: "p".into(), score, onset: 0.0, range: [0.0, 1.0], null: Some(0.0),
 ///     gradient: 0.0, loss_onset: 1.0, loss_after: Some(1.0 - shrink),
 ///     shrink: Some(shrink), shrink_std: Some(0.01), excess: Some(excess),
 ///     excess_std: Some(0.01), gap_explained: Some(gap), held_out_losses: vec![],
-///     params: BTreeMap::new(), params_std: BTreeMap::new(),
+///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None,
 /// };
 /// let rule = VerdictRule::default();
 /// // Shrinks 0.80 and 0.78 tie; the first has the higher score.
@@ -1051,6 +1109,7 @@ pub fn diagnose(
             score: sc.score,
             onset: sc.onset,
             range: [c.range.0, c.range.1],
+            null: c.null,
             gradient: sc.gradient,
             loss_onset: sc.loss_onset,
             loss_after: None,
@@ -1062,6 +1121,7 @@ pub fn diagnose(
             held_out_losses: Vec::new(),
             params: BTreeMap::new(),
             params_std: BTreeMap::new(),
+            detection_limit: None,
         });
     }
     timings.scoring_s = t.elapsed().as_secs_f64();
@@ -1196,6 +1256,10 @@ pub fn diagnose(
             .zip(std)
             .map(|(s, v)| (s.path.clone(), v))
             .collect();
+        e.detection_limit = c
+            .null
+            .and(e.params_std.get(&e.path).copied().flatten())
+            .map(|spread| DETECTION_LIMIT_SPREADS * spread);
         refits.push((k, image_s));
     }
     timings.refits_s = t.elapsed().as_secs_f64() - refit_spread_s;

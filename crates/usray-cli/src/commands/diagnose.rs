@@ -136,6 +136,29 @@ fn report(
             writeln!(r)?
         }
     }
+    if ["none", "unexplained"].contains(&d.verdict.effect.as_str()) {
+        let limits: Vec<String> = d
+            .effects
+            .iter()
+            .filter_map(|e| {
+                let (limit, null) = (e.detection_limit?, e.null?);
+                let found = e.params.get(&e.path)? - null;
+                let z = e.null_z()?;
+                Some(format!(
+                    "{} (`{}`) within {}{} of {} (found {}: {z:+.1} spreads)",
+                    e.effect,
+                    e.path,
+                    if e.range[0] < null { "±" } else { "+" },
+                    short(limit),
+                    short(null),
+                    signed(found)
+                ))
+            })
+            .collect();
+        if !limits.is_empty() {
+            writeln!(r, "**What these data cannot rule out.** Within its limit of detection — {:.0} Monte Carlo spreads of its refitted value from its null — an effect cannot be told from its absence by its parameter, so one weaker than this could be present: {}. These limits are lower bounds: the spreads count Monte Carlo noise only, and a value found beyond its limit is not thereby an effect (the held-out loss decides that).\n", usray_optim::DETECTION_LIMIT_SPREADS, limits.join("; "))?;
+        }
+    }
     if let Some(named) = d
         .effects
         .iter()
@@ -188,10 +211,10 @@ fn report(
     }
     residual_kinds(&mut r, &d.residual)?;
     writeln!(r, "\n## 3–4. Candidate effects\n")?;
-    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error; gap explained: the share of the gap above the noise level the refit removes. An effect is named when its excess is at least {:.2} and {:.0} standard errors, and, where a real gap remains (held-out loss above {:.1} × the noise level), it explains at least {:.0}% of the gap.\n", d.held_out_seeds, d.null_refit.shrink, d.rule.min_excess, d.rule.min_excess_z, d.rule.noise_factor, 100.0 * d.rule.min_gap_explained)?;
+    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error; gap explained: the share of the gap above the noise level the refit removes; limit of detection: the smallest departure of the effect parameter from its null that these data resolve, {:.0} Monte Carlo spreads of the refitted value (a lower bound). An effect is named when its excess is at least {:.2} and {:.0} standard errors, and, where a real gap remains (held-out loss above {:.1} × the noise level), it explains at least {:.0}% of the gap.\n", d.held_out_seeds, d.null_refit.shrink, usray_optim::DETECTION_LIMIT_SPREADS, d.rule.min_excess, d.rule.min_excess_z, d.rule.noise_factor, 100.0 * d.rule.min_gap_explained)?;
     writeln!(
         r,
-        "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | excess | gap explained | found |\n|---|---|---|---|---|---|---|---|---|---|"
+        "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | excess | gap explained | limit of detection | found |\n|---|---|---|---|---|---|---|---|---|---|---|"
     )?;
     for e in &d.effects {
         let mut found: Vec<String> = e
@@ -210,7 +233,7 @@ fn report(
         }
         writeln!(
             r,
-            "| {} | `{}` | {:.4e} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} |",
+            "| {} | `{}` | {:.4e} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} | {} |",
             e.effect,
             e.path,
             e.onset,
@@ -228,12 +251,35 @@ fn report(
                 _ => "—".into(),
             },
             or_dash(e.gap_explained, |g| format!("{g:.2}")),
+            match (e.detection_limit, e.null) {
+                (Some(l), Some(null)) if e.range[0] < null => format!("±{}", short(l)),
+                (Some(l), _) => format!("+{}", short(l)),
+                _ => "—".into(),
+            },
             found.join(", ")
         )?;
     }
     let t = &d.timings;
     writeln!(r, "\n## Time\n\n{wall:.1} s in all: calibration {:.1} s, held-out evaluation {:.1} s, scoring every candidate {:.1} s, refits of the candidates {:.1} s, the null refit {:.1} s, parameter spreads {:.1} s.", t.calibration_s, t.held_out_s, t.scoring_s, t.refits_s, t.null_refit_s, t.spread_s)?;
     Ok(r)
+}
+
+/// A value in its parameter's own unit, fixed-point where that reads well.
+fn short(v: f64) -> String {
+    if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
+        format!("{v:.3}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// [`short`] with its sign.
+fn signed(v: f64) -> String {
+    if v >= 0.0 {
+        format!("+{}", short(v))
+    } else {
+        short(v)
+    }
 }
 
 /// A standard deviation, or why there is none.
