@@ -192,6 +192,17 @@ pub enum Command {
         /// data within the noise come out `none` more often. Twice the renders.
         #[arg(long)]
         paired: bool,
+        /// Measured data held out from the fit (other frames of the same
+        /// acquisition; any format `--measured` takes, on the same grid): every
+        /// held-out loss is measured against it, so that a refit fitting the
+        /// fitted frames' own noise gains nothing.
+        #[arg(long, value_name = "PATH", conflicts_with = "held_out_frames")]
+        held_out_measured: Option<PathBuf>,
+        /// Split multi-frame channel data (`--measured` .json with `frame`-tagged
+        /// transmits): fit the even-numbered frames and measure every held-out
+        /// loss against the odd-numbered ones.
+        #[arg(long)]
+        held_out_frames: bool,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

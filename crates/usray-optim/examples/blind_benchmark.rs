@@ -1,7 +1,7 @@
 //! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
 //!
 //! ```text
-//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X]
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame]
 //! ```
 //!
 //! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
@@ -15,7 +15,8 @@
 //! `--data-rays=N` renders the measured data with `N` rays per element instead
 //! of `RAYS` (less Monte Carlo noise in the data, as in a real measurement);
 //! `--noise-db=X` sets the measurement noise, dB below the largest channel
-//! sample (default 60).
+//! sample (default 60). `--held-out-frame` measures every held-out loss against
+//! a second frame of the draw's data (`usray_optim::blind::measured_frame`).
 //!
 //! For each rightly named effect it also prints how far each parameter of the
 //! named refit lies from the truth of the hidden scene, in units of its reported
@@ -23,7 +24,7 @@
 //! whole error, `z` would have a root mean square near 1.
 
 use usray_optim::blind::{
-    draw, measured_image, verdict_is_false_effect, verdict_is_right, BlindOptions,
+    draw, measured_frame, measured_image, verdict_is_false_effect, verdict_is_right, BlindOptions,
 };
 use usray_optim::{diagnose, DiagnoseOptions};
 use usray_transport::{RenderOptions, Scene};
@@ -31,6 +32,8 @@ use usray_transport::{RenderOptions, Scene};
 fn main() {
     let all: Vec<String> = std::env::args().skip(1).collect();
     let paired = all.iter().any(|a| a == "--paired");
+    // `--held-out-frame`: a second frame of each draw's data for the held-out losses.
+    let held_out_frame = all.iter().any(|a| a == "--held-out-frame");
     // `--data-rays=N`: rays per element of the measured data (default RAYS).
     let data_rays: Option<usize> = all.iter().find_map(|a| {
         a.strip_prefix("--data-rays=").map(|n| {
@@ -52,12 +55,15 @@ fn main() {
     let args: Vec<String> = all
         .into_iter()
         .filter(|a| {
-            a != "--paired" && !a.starts_with("--data-rays=") && !a.starts_with("--noise-db=")
+            a != "--paired"
+                && a != "--held-out-frame"
+                && !a.starts_with("--data-rays=")
+                && !a.starts_with("--noise-db=")
         })
         .collect();
     if args.len() < 4 {
         eprintln!(
-            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired]"
+            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame]"
         );
         std::process::exit(2);
     }
@@ -112,7 +118,16 @@ fn main() {
         }
         let result = draw(&base, i, &bopts)
             .and_then(|d| measured_image(&d, &bopts).map(|m| (d, m)))
-            .and_then(|(d, m)| diagnose(&base, &m, &dopts, |_| {}).map(|r| (d, r)));
+            .and_then(|(d, m)| {
+                let held = held_out_frame
+                    .then(|| measured_frame(&d, 1, &bopts))
+                    .transpose()?;
+                let opts = DiagnoseOptions {
+                    held_out_measured: held,
+                    ..dopts.clone()
+                };
+                diagnose(&base, &m, &opts, |_| {}).map(|r| (d, r))
+            });
         let (d, r) = match result {
             Ok(x) => x,
             Err(e) => {

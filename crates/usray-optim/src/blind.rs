@@ -239,6 +239,25 @@ pub fn measured_image(d: &Draw, opts: &BlindOptions) -> Result<Vec<f64>, OptimEr
     Ok(op.forward(&ch, &mut ws)?.data)
 }
 
+/// Distance between the seeds of a draw's frames ([`measured_frame`]).
+pub const FRAME_SEED_STRIDE: u64 = 0x5851_f42d_4c95_7f2d;
+
+/// Frame `frame` of a draw's measured data: the same hidden scene rendered with
+/// an independent seed (and its own measurement noise), as a scanner acquires
+/// successive frames of a static phantom; frame 0 is [`measured_image`]'s.
+/// Other frames serve as held-out data
+/// ([`crate::DiagnoseOptions::held_out_measured`]).
+///
+/// # Errors
+/// A failing render or image formation.
+pub fn measured_frame(d: &Draw, frame: u64, opts: &BlindOptions) -> Result<Vec<f64>, OptimError> {
+    let other = Draw {
+        seed: d.seed.wrapping_add(frame.wrapping_mul(FRAME_SEED_STRIDE)),
+        ..d.clone()
+    };
+    measured_image(&other, opts)
+}
+
 /// Whether a verdict is right for a draw: the effect's name for the five; for
 /// `none`, `"none"` (`"unexplained"` counts as not naming a false effect, but
 /// not as right); for `outside`, `"unexplained"`.

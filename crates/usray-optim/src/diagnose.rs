@@ -41,7 +41,10 @@
 //!    with its standard error from the per-seed differences. One held-out seed
 //!    alone makes the shrink noisy: the calibrated model's loss on it varies by
 //!    ±10–20% from seed to seed at the blind benchmark's size, and an unlucky
-//!    seed makes every refit look like an improvement.
+//!    seed makes every refit look like an improvement. With
+//!    [`DiagnoseOptions::held_out_measured`] (other frames of the acquisition)
+//!    every held-out loss is measured against those frames instead, so that a
+//!    refit that fits the fitted frames' own noise gains nothing there.
 //!    **The null refit** is the control: the base parameters alone, refitted
 //!    from the calibrated point for as many iterations as each candidate's
 //!    refit. Continuing the calibration alone may shrink the held-out loss (by
@@ -643,6 +646,17 @@ pub struct DiagnoseOptions {
     /// calibration drifted to roughness 0.54 and its wall refit found 1.32 mm
     /// for 1.00, where the one-render loss finds 1.002 mm; docs/diagnosis.md).
     pub paired: bool,
+    /// Measured data held out from the fit — other frames of the same
+    /// acquisition, on the same grid as the fitted image — against which every
+    /// held-out loss is measured (the calibrated model's, each refit's and the
+    /// null refit's, each still on the held-out simulation seeds). A refit that
+    /// fits the fitted frames' own noise gains nothing on other frames: on the
+    /// blind benchmark a depth-gain refit of data without any effect shrank the
+    /// fitted frame's held-out loss by 0.167 and three other frames' by −0.03 to
+    /// +0.05 (docs/diagnosis.md). `None` (the default): the fitted data, on
+    /// held-out seeds only ([`crate::load_reference_frames`] splits multi-frame
+    /// channel data into the two).
+    pub held_out_measured: Option<Vec<f64>>,
     /// Fit settings shared by calibration and refits (iterations overridden).
     pub fit: FitOptions,
     /// Render options of the simulation (rays, seed `s`, threads).
@@ -660,6 +674,7 @@ impl Default for DiagnoseOptions {
             spread_pairs: 4,
             held_out_seeds: 6,
             paired: false,
+            held_out_measured: None,
             fit: FitOptions::default(),
             render: RenderOptions::default(),
         }
@@ -892,6 +907,10 @@ pub struct Diagnosis {
     pub held_out_seeds: usize,
     /// Whether every loss was the paired loss ([`DiagnoseOptions::paired`]).
     pub paired: bool,
+    /// Whether the held-out losses were measured against held-out measured
+    /// data (other frames, [`DiagnoseOptions::held_out_measured`]) rather than
+    /// the fitted data.
+    pub held_out_frames: bool,
     /// Where each step's time went.
     pub timings: Timings,
     /// The full residual analysis of the calibrated model (kinds of residual).
@@ -1001,6 +1020,18 @@ pub fn diagnose(
             "held_out_seeds must be at least 1 (shrinks are measured on held-out seeds)".into(),
         ));
     }
+    // The data every held-out loss is measured against.
+    let held_data: &[f64] = match &opts.held_out_measured {
+        Some(h) if h.len() != measured.len() => {
+            return Err(OptimError::Diagnosis(format!(
+                "the held-out measured image has {} pixels but the measured image {}: both must be on the scene's imaging grid",
+                h.len(),
+                measured.len()
+            )))
+        }
+        Some(h) => h,
+        None => measured,
+    };
     let mut timings = Timings::default();
     let seed = opts.render.seed.unwrap_or(scene.acquisition.seed);
     let render_s = RenderOptions {
@@ -1052,7 +1083,7 @@ pub fn diagnose(
 
     // Held-out losses and Monte Carlo noise level of the calibrated model.
     let t = Instant::now();
-    let held = held_out(&cal_scene, measured, &renders_held, opts.paired)?;
+    let held = held_out(&cal_scene, held_data, &renders_held, opts.paired)?;
     let held_losses: Vec<f64> = held.iter().map(|e| e.loss).collect();
     let held_loss = mean(&held_losses);
     // The noise level: the same loss with the calibrated model's own image (seed
@@ -1151,7 +1182,7 @@ pub fn diagnose(
     )?;
     let null_after = held_out(
         &null_obj.scene_at(&null_fit.final_params)?,
-        measured,
+        held_data,
         &renders_held,
         opts.paired,
     )?;
@@ -1215,7 +1246,7 @@ pub fn diagnose(
             |_| {},
         )?;
         let fitted = obj.scene_at(&r.final_params)?;
-        let after = held_out(&fitted, measured, &renders_held, opts.paired)?;
+        let after = held_out(&fitted, held_data, &renders_held, opts.paired)?;
         let after_losses: Vec<f64> = after.iter().map(|e| e.loss).collect();
         let after_loss = mean(&after_losses);
         let (shrink, shrink_std) = mean_and_se(&relative(&held_losses, &after_losses));
@@ -1327,6 +1358,7 @@ pub fn diagnose(
         spread_pairs: opts.spread_pairs,
         held_out_seeds: opts.held_out_seeds,
         paired: opts.paired,
+        held_out_frames: opts.held_out_measured.is_some(),
         timings,
         residual,
         calibrated_image: cal_eval.image.data,

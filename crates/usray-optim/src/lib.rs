@@ -57,7 +57,7 @@ pub use objective::{
     PAIRED_SEED_OFFSET,
 };
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
-pub use reference::load_reference;
+pub use reference::{load_reference, load_reference_frames};
 pub use residual::{analyse_residual, RegionShare, ResidualOptions, ResidualReport};
 pub use spread::{linearised_spread, parameter_spread};
 

@@ -88,3 +88,61 @@ pub fn load_reference(path: &Path, scene: &Scene) -> Result<Vec<f64>, OptimError
         ))),
     }
 }
+
+/// Loads multi-frame channel data (`.json`, frames as in
+/// [`usray_signal::ChannelMeta::frames`]) as two reference B-modes on `scene`'s
+/// grid: the even-numbered frames (0, 2, 4, … in label order) and the
+/// odd-numbered ones, each beamformed and frame-averaged like
+/// [`load_reference`]. The first is for the fit, the second for held-out losses
+/// ([`crate::DiagnoseOptions::held_out_measured`]).
+///
+/// # Errors
+/// Anything [`load_reference`] refuses; a file that is not channel data; channel
+/// data with fewer than two frames.
+pub fn load_reference_frames(
+    path: &Path,
+    scene: &Scene,
+) -> Result<(Vec<f64>, Vec<f64>), OptimError> {
+    let shown = path.display();
+    let is_json = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if !is_json {
+        return Err(OptimError::Reference(format!(
+            "{shown}: holding frames out needs multi-frame channel data (.json), not a B-mode"
+        )));
+    }
+    let ch = read_channels(path)?;
+    let frames = ch
+        .meta
+        .frames()
+        .map_err(|e| OptimError::Reference(format!("{shown}: {e}")))?;
+    if frames.len() < 2 {
+        return Err(OptimError::Reference(format!(
+            "{shown}: holding frames out needs at least two frames (transmits tagged `frame`); this file has one"
+        )));
+    }
+    let half = |parity: usize| -> Result<Vec<f64>, OptimError> {
+        let transmits: Vec<usize> = frames
+            .iter()
+            .skip(parity)
+            .step_by(2)
+            .flatten()
+            .copied()
+            .collect();
+        let record = ch.n_elements() * ch.n_samples;
+        let mut part = ch.clone();
+        part.meta.transmits = transmits
+            .iter()
+            .map(|&t| ch.meta.transmits[t].clone())
+            .collect();
+        part.samples = transmits
+            .iter()
+            .flat_map(|&t| ch.samples[t * record..(t + 1) * record].iter().copied())
+            .collect();
+        let op = BMode::new(&scene.imaging_settings(), &part.meta, part.n_samples)?;
+        let mut ws = op.workspace();
+        Ok(op.forward(&part, &mut ws)?.data)
+    };
+    Ok((half(0)?, half(1)?))
+}

@@ -75,6 +75,8 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             seed,
             held_out_seeds,
             paired,
+            held_out_measured,
+            held_out_frames,
             common,
         } => diagnose::run(
             scene,
@@ -87,6 +89,8 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
                 seed: *seed,
                 held_out_seeds: *held_out_seeds,
                 paired: *paired,
+                held_out_measured: held_out_measured.clone(),
+                held_out_frames: *held_out_frames,
             },
             common,
         ),
