@@ -211,18 +211,22 @@ mod usray {
 /// Renders `scene` with `seed` into `dir/ref` (the reference of a test) and
 /// returns that directory.
 fn rendered(dir: &Path, scene: &str, seed: u64) -> std::path::PathBuf {
-    let refdir = dir.join("ref");
+    render_into(&dir.join("ref"), scene, seed)
+}
+
+/// `usray render SCENE --seed SEED --out OUT`; returns `OUT`.
+fn render_into(out: &Path, scene: &str, seed: u64) -> std::path::PathBuf {
     let o = usray(&[
         "render",
         scene,
         "--seed",
         &seed.to_string(),
         "--out",
-        refdir.to_str().unwrap(),
+        out.to_str().unwrap(),
         "--quiet",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    refdir
+    out.to_path_buf()
 }
 
 /// `usray diagnose` writes every output; `diagnosis.json` gives each fitted
@@ -426,18 +430,7 @@ fn diagnose_holds_out_measured_frames() {
     let scene = tiny_scene(dir.path());
     let s = scene.to_str().unwrap();
     let frame = |seed: u64| {
-        let out = dir.path().join(format!("frame{seed}"));
-        let o = usray(&[
-            "render",
-            s,
-            "--seed",
-            &seed.to_string(),
-            "--out",
-            out.to_str().unwrap(),
-            "--quiet",
-        ]);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        out.join("channels.json")
+        render_into(&dir.path().join(format!("frame{seed}")), s, seed).join("channels.json")
     };
     let (a, b) = (frame(7), frame(8));
     // Two frames in one file: `a` tagged frame 0, `b` frame 1.
@@ -461,7 +454,8 @@ fn diagnose_holds_out_measured_frames() {
     two.samples.extend_from_slice(&cb.samples);
     let two_path = dir.path().join("two.json");
     usray_signal::io::write_channels(&two_path, &two).unwrap();
-    let run = |out: &str, extra: &[&str]| -> serde_json::Value {
+    // `usray diagnose` on the tiny scene with `extra` arguments, into `out`.
+    let diagnose_with = |out: &str, extra: &[&str]| {
         let out = dir.path().join(out);
         let mut args = vec![
             "diagnose",
@@ -480,6 +474,10 @@ fn diagnose_holds_out_measured_frames() {
         ];
         args.extend_from_slice(extra);
         let o = usray(&args);
+        (out, o)
+    };
+    let run = |out: &str, extra: &[&str]| -> serde_json::Value {
+        let (out, o) = diagnose_with(out, extra);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).unwrap()).unwrap()
     };
@@ -512,20 +510,7 @@ fn diagnose_holds_out_measured_frames() {
     assert_ne!(losses(&split), losses(&fitted_only));
     // What cannot be split.
     let refused = |extra: &[&str], needle: &str| {
-        let out = dir.path().join("refused");
-        let mut args = vec![
-            "diagnose",
-            s,
-            "--iters",
-            "1",
-            "--rays",
-            "5",
-            "--out",
-            out.to_str().unwrap(),
-            "--quiet",
-        ];
-        args.extend_from_slice(extra);
-        let o = usray(&args);
+        let (_, o) = diagnose_with("refused", extra);
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(
             !o.status.success() && err.contains(needle),
