@@ -229,6 +229,26 @@ fn render_into(out: &Path, scene: &str, seed: u64) -> std::path::PathBuf {
     out.to_path_buf()
 }
 
+/// `usray diagnose` of the tiny scene, quick (2 iterations, 5 rays, one
+/// refit), into `out`, with the `extra` arguments (`--measured` among them).
+fn diagnose_tiny(scene: &str, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "diagnose",
+        scene,
+        "--iters",
+        "2",
+        "--confirm",
+        "1",
+        "--rays",
+        "5",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    usray(&args)
+}
+
 /// `usray diagnose` writes every output; `diagnosis.json` gives each fitted
 /// parameter its spread (`params_std`) and each refit's shrink its standard
 /// error, and `report.md` shows them and the kinds of residual as tables (not
@@ -240,21 +260,8 @@ fn diagnose_writes_report_with_parameter_spreads() {
     let s = scene.to_str().unwrap();
     let refdir = rendered(dir.path(), s, 7);
     let out = dir.path().join("d");
-    let o = usray(&[
-        "diagnose",
-        s,
-        "--measured",
-        refdir.join("bmode.npy").to_str().unwrap(),
-        "--iters",
-        "2",
-        "--confirm",
-        "1",
-        "--rays",
-        "5",
-        "--out",
-        out.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let bmode = refdir.join("bmode.npy");
+    let o = diagnose_tiny(s, &out, &["--measured", bmode.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for f in [
         "diagnosis.json",
@@ -336,24 +343,17 @@ fn diagnose_writes_report_with_parameter_spreads() {
         "debug output in report.md"
     );
     let out1 = dir.path().join("d1");
-    let o = usray(&[
-        "diagnose",
+    let o = diagnose_tiny(
         s,
-        "--measured",
-        refdir.join("bmode.npy").to_str().unwrap(),
-        "--iters",
-        "1",
-        "--confirm",
-        "1",
-        "--rays",
-        "5",
-        "--paired",
-        "--held-out-seeds",
-        "1",
-        "--out",
-        out1.to_str().unwrap(),
-        "--quiet",
-    ]);
+        &out1,
+        &[
+            "--measured",
+            bmode.to_str().unwrap(),
+            "--paired",
+            "--held-out-seeds",
+            "1",
+        ],
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out1.join("diagnosis.json")).unwrap())
@@ -454,26 +454,11 @@ fn diagnose_holds_out_measured_frames() {
     two.samples.extend_from_slice(&cb.samples);
     let two_path = dir.path().join("two.json");
     usray_signal::io::write_channels(&two_path, &two).unwrap();
-    // `usray diagnose` on the tiny scene with `extra` arguments, into `out`.
     let diagnose_with = |out: &str, extra: &[&str]| {
         let out = dir.path().join(out);
-        let mut args = vec![
-            "diagnose",
-            s,
-            "--iters",
-            "2",
-            "--confirm",
-            "1",
-            "--rays",
-            "5",
-            "--held-out-seeds",
-            "2",
-            "--out",
-            out.to_str().unwrap(),
-            "--quiet",
-        ];
+        let mut args = vec!["--held-out-seeds", "2"];
         args.extend_from_slice(extra);
-        let o = usray(&args);
+        let o = diagnose_tiny(s, &out, &args);
         (out, o)
     };
     let run = |out: &str, extra: &[&str]| -> serde_json::Value {
