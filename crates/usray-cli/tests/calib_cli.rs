@@ -314,20 +314,21 @@ fn diagnose_writes_report_with_parameter_spreads() {
         assert_eq!(losses.as_array().map(Vec::len), Some(6));
     }
     assert!(v["null_refit"]["shrink"].is_f64());
-    // Each effect states its null; a refitted one with a null and a spread its
-    // limit of detection, three spreads.
+    // Each effect states its null; the one refitted here (it has a null and a
+    // spread) its limit of detection, three spreads.
     let path = refitted[0]["path"].as_str().unwrap();
-    assert!(refitted[0].get("null").is_some() && refitted[0].get("detection_limit").is_some());
-    if let (Some(limit), Some(spread)) = (
-        refitted[0]["detection_limit"].as_f64(),
-        refitted[0]["params_std"][path].as_f64(),
-    ) {
-        assert!(refitted[0]["null"].is_f64());
-        assert!(
-            (limit - 3.0 * spread).abs() <= 1e-12 * limit,
-            "{limit} vs {spread}"
-        );
-    }
+    assert!(v["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|e| e.get("null").is_some() && e.get("detection_limit").is_some()));
+    assert!(refitted[0]["null"].is_f64(), "{}", refitted[0]);
+    let limit = refitted[0]["detection_limit"].as_f64().unwrap();
+    let spread = refitted[0]["params_std"][path].as_f64().unwrap();
+    assert!(
+        (limit - 3.0 * spread).abs() <= 1e-12 * limit,
+        "{limit} vs {spread}"
+    );
     assert_eq!(v["rule"]["min_excess"].as_f64(), Some(0.2));
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     for needle in [
@@ -341,6 +342,14 @@ fn diagnose_writes_report_with_parameter_spreads() {
     assert!(
         !report.contains("EchoPosition {"),
         "debug output in report.md"
+    );
+    // Without a named effect the report says what the data cannot rule out.
+    let named = !["none", "unexplained"].contains(&v["verdict"]["effect"].as_str().unwrap());
+    assert_eq!(
+        report.contains("What these data cannot rule out"),
+        !named,
+        "verdict {}",
+        v["verdict"]
     );
     let out1 = dir.path().join("d1");
     let o = diagnose_tiny(
