@@ -1,7 +1,7 @@
 //! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
 //!
 //! ```text
-//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame]
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2]
 //! ```
 //!
 //! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
@@ -17,6 +17,8 @@
 //! `--noise-db=X` sets the measurement noise, dB below the largest channel
 //! sample (default 60). `--held-out-frame` measures every held-out loss against
 //! a second frame of the draw's data (`usray_optim::blind::measured_frame`).
+//! `--params=P1,P2` names the base model's free parameters (default: the
+//! documented default set).
 //!
 //! For each rightly named effect it also prints how far each parameter of the
 //! named refit lies from the truth of the hidden scene, in units of its reported
@@ -43,6 +45,13 @@ fn main() {
             })
         })
     });
+    // `--params=P1,P2`: the base model's free parameters (default: the
+    // documented default set, `usray_optim::default_free_params`).
+    let free_params: Vec<String> = all
+        .iter()
+        .find_map(|a| a.strip_prefix("--params="))
+        .map(|p| p.split(',').map(str::to_string).collect())
+        .unwrap_or_default();
     // `--noise-db=X`: measurement noise, dB below the largest channel sample.
     let noise_db: Option<f64> = all.iter().find_map(|a| {
         a.strip_prefix("--noise-db=").map(|n| {
@@ -59,11 +68,12 @@ fn main() {
                 && a != "--held-out-frame"
                 && !a.starts_with("--data-rays=")
                 && !a.starts_with("--noise-db=")
+                && !a.starts_with("--params=")
         })
         .collect();
     if args.len() < 4 {
         eprintln!(
-            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame]"
+            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2]"
         );
         std::process::exit(2);
     }
@@ -98,6 +108,7 @@ fn main() {
         bopts.seed = parse(5) as u64;
     }
     let dopts = DiagnoseOptions {
+        free_params,
         calibration_iters: iters,
         refit_iters: iters,
         paired,
