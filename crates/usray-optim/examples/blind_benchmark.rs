@@ -32,45 +32,22 @@ use usray_optim::{diagnose, DiagnoseOptions};
 use usray_transport::{RenderOptions, Scene};
 
 fn main() {
-    let all: Vec<String> = std::env::args().skip(1).collect();
-    let paired = all.iter().any(|a| a == "--paired");
+    // Options start with `--`; the rest are positional.
+    let (options, args): (Vec<String>, Vec<String>) =
+        std::env::args().skip(1).partition(|a| a.starts_with("--"));
+    let flag = |name: &str| options.iter().any(|a| a == name);
+    let paired = flag("--paired");
     // `--held-out-frame`: a second frame of each draw's data for the held-out losses.
-    let held_out_frame = all.iter().any(|a| a == "--held-out-frame");
+    let held_out_frame = flag("--held-out-frame");
     // `--data-rays=N`: rays per element of the measured data (default RAYS).
-    let data_rays: Option<usize> = all.iter().find_map(|a| {
-        a.strip_prefix("--data-rays=").map(|n| {
-            n.parse().unwrap_or_else(|_| {
-                eprintln!("--data-rays needs a whole number, found `{n}`");
-                std::process::exit(2)
-            })
-        })
-    });
+    let data_rays: Option<usize> = option_value(&options, "--data-rays");
+    // `--noise-db=X`: measurement noise, dB below the largest channel sample.
+    let noise_db: Option<f64> = option_value(&options, "--noise-db");
     // `--params=P1,P2`: the base model's free parameters (default: the
     // documented default set, `usray_optim::default_free_params`).
-    let free_params: Vec<String> = all
-        .iter()
-        .find_map(|a| a.strip_prefix("--params="))
+    let free_params: Vec<String> = option_value::<String>(&options, "--params")
         .map(|p| p.split(',').map(str::to_string).collect())
         .unwrap_or_default();
-    // `--noise-db=X`: measurement noise, dB below the largest channel sample.
-    let noise_db: Option<f64> = all.iter().find_map(|a| {
-        a.strip_prefix("--noise-db=").map(|n| {
-            n.parse().unwrap_or_else(|_| {
-                eprintln!("--noise-db needs a number, found `{n}`");
-                std::process::exit(2)
-            })
-        })
-    });
-    let args: Vec<String> = all
-        .into_iter()
-        .filter(|a| {
-            a != "--paired"
-                && a != "--held-out-frame"
-                && !a.starts_with("--data-rays=")
-                && !a.starts_with("--noise-db=")
-                && !a.starts_with("--params=")
-        })
-        .collect();
     if args.len() < 4 {
         eprintln!(
             "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2]"
@@ -239,4 +216,18 @@ fn main() {
             std::process::exit(1)
         }
     }
+}
+
+/// The value of option `NAME=VALUE` among `options`, parsed; exits with a
+/// message naming the option when it does not parse.
+fn option_value<T: std::str::FromStr>(options: &[String], name: &str) -> Option<T> {
+    let prefix = format!("{name}=");
+    options.iter().find_map(|a| {
+        a.strip_prefix(&prefix).map(|v| {
+            v.parse().unwrap_or_else(|_| {
+                eprintln!("{name} cannot take `{v}`");
+                std::process::exit(2)
+            })
+        })
+    })
 }

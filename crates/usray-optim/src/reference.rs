@@ -9,7 +9,7 @@
 use crate::OptimError;
 use std::path::Path;
 use usray_signal::io::read_npy;
-use usray_signal::{read_channels, BMode};
+use usray_signal::{read_channels, BMode, ChannelData, ChannelMeta};
 use usray_transport::Scene;
 
 /// Loads `path` as a reference B-mode `[nz, nx]` (row-major) on `scene`'s grid.
@@ -25,12 +25,7 @@ pub fn load_reference(path: &Path, scene: &Scene) -> Result<Vec<f64>, OptimError
         .unwrap_or_default();
     let shown = path.display();
     match ext.as_str() {
-        "json" => {
-            let ch = read_channels(path)?;
-            let op = BMode::new(&scene.imaging_settings(), &ch.meta, ch.n_samples)?;
-            let mut ws = op.workspace();
-            Ok(op.forward(&ch, &mut ws)?.data)
-        }
+        "json" => beamformed(&read_channels(path)?, scene),
         "npy" => {
             let a = read_npy(path)?;
             if a.shape != [nz, nx] {
@@ -131,18 +126,28 @@ pub fn load_reference_frames(
             .copied()
             .collect();
         let record = ch.n_elements() * ch.n_samples;
-        let mut part = ch.clone();
-        part.meta.transmits = transmits
-            .iter()
-            .map(|&t| ch.meta.transmits[t].clone())
-            .collect();
-        part.samples = transmits
-            .iter()
-            .flat_map(|&t| ch.samples[t * record..(t + 1) * record].iter().copied())
-            .collect();
-        let op = BMode::new(&scene.imaging_settings(), &part.meta, part.n_samples)?;
-        let mut ws = op.workspace();
-        Ok(op.forward(&part, &mut ws)?.data)
+        let part = ChannelData {
+            meta: ChannelMeta {
+                transmits: transmits
+                    .iter()
+                    .map(|&t| ch.meta.transmits[t].clone())
+                    .collect(),
+                ..ch.meta.clone()
+            },
+            n_samples: ch.n_samples,
+            samples: transmits
+                .iter()
+                .flat_map(|&t| ch.samples[t * record..(t + 1) * record].iter().copied())
+                .collect(),
+        };
+        beamformed(&part, scene)
     };
     Ok((half(0)?, half(1)?))
+}
+
+/// `ch` beamformed into a B-mode with `scene`'s `[imaging]` settings.
+fn beamformed(ch: &ChannelData, scene: &Scene) -> Result<Vec<f64>, OptimError> {
+    let op = BMode::new(&scene.imaging_settings(), &ch.meta, ch.n_samples)?;
+    let mut ws = op.workspace();
+    Ok(op.forward(ch, &mut ws)?.data)
 }
