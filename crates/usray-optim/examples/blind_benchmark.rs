@@ -1,7 +1,7 @@
 //! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
 //!
 //! ```text
-//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2]
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2] [--sampler=stratified|independent]
 //! ```
 //!
 //! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
@@ -18,7 +18,8 @@
 //! sample (default 60). `--held-out-frame` measures every held-out loss against
 //! a second frame of the draw's data (`usray_optim::blind::measured_frame`).
 //! `--params=P1,P2` names the base model's free parameters (default: the
-//! documented default set).
+//! documented default set). `--sampler=NAME` sets the base scene's
+//! `acquisition.sampler` (so both the data and the model use it).
 //!
 //! For each rightly named effect it also prints how far each parameter of the
 //! named refit lies from the truth of the hidden scene, in units of its reported
@@ -29,6 +30,7 @@ use usray_optim::blind::{
     draw, measured_frame, measured_image, verdict_is_false_effect, verdict_is_right, BlindOptions,
 };
 use usray_optim::{diagnose, DiagnoseOptions};
+use usray_transport::scene::Sampler;
 use usray_transport::{RenderOptions, Scene};
 
 fn main() {
@@ -50,7 +52,7 @@ fn main() {
         .unwrap_or_default();
     if args.len() < 4 {
         eprintln!(
-            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2]"
+            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2] [--sampler=stratified|independent]"
         );
         std::process::exit(2);
     }
@@ -64,10 +66,21 @@ fn main() {
             std::process::exit(2)
         })
     };
-    let base = Scene::load(&args[0]).unwrap_or_else(|e| {
+    let mut base = Scene::load(&args[0]).unwrap_or_else(|e| {
         eprintln!("{e}");
         std::process::exit(2)
     });
+    // `--sampler=NAME`: `acquisition.sampler` of the base scene (data and model).
+    if let Some(name) = option_value::<String>(&options, "--sampler") {
+        base.acquisition.sampler = match name.as_str() {
+            "stratified" => Sampler::Stratified,
+            "independent" => Sampler::Independent,
+            other => {
+                eprintln!("--sampler must be `stratified` or `independent`, found `{other}`");
+                std::process::exit(2)
+            }
+        };
+    }
     let (draws, rays, iters) = (parse(1), parse(2), parse(3));
     let render = RenderOptions {
         rays_per_element: Some(rays),

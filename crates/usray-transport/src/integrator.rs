@@ -72,7 +72,7 @@ use crate::probe::{
     cosine_hemisphere, element_at, element_x, transmit_delay, transmit_directivity, ReceiveLobe,
 };
 use crate::rng::{dim, PathSampler};
-use crate::scene::{Emission, MaterialT, SceneT};
+use crate::scene::{Emission, MaterialT, Sampler, SceneT};
 use usray_ad::Real;
 use usray_geometry::{Hit, MediumStack, Ray, Vec3};
 
@@ -112,6 +112,8 @@ pub struct TraceSettings {
     /// one element drawn uniformly in each of `K` contiguous strata, weight = the
     /// stratum's size (`N_e/K`); `K = 1` is the paper's uniform choice.
     pub receivers_per_event: usize,
+    /// How an element's rays draw their random numbers (`acquisition.sampler`).
+    pub sampler: Sampler,
 }
 
 impl TraceSettings {
@@ -616,7 +618,12 @@ fn trace<T: Real>(
         out,
         cast,
     };
-    let sampler = PathSampler::new(settings.seed, tx as u32, el as u32, ray);
+    let stratified_rays = match settings.sampler {
+        Sampler::Stratified => settings.rays_per_element as u32,
+        Sampler::Independent => 1,
+    };
+    let sampler =
+        PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays);
     let n_el = st.n_elements;
 
     // Step 1: emission from the element face, cosine-weighted direction.

@@ -94,6 +94,7 @@ pub fn settings(scene: &Scene, opts: &RenderOptions) -> TraceSettings {
             .receivers_per_event
             .or(scene.acquisition.receivers_per_event)
             .unwrap_or(0),
+        sampler: scene.acquisition.sampler,
     }
 }
 

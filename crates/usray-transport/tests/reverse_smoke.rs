@@ -20,6 +20,7 @@ fn functional<T: Real>(scene: &Scene, st: &usray_transport::SceneT<T>) -> T {
         max_bounces: scene.acquisition.max_bounces,
         rays_per_element: 1,
         receivers_per_event: 0,
+        sampler: usray_transport::scene::Sampler::Independent,
     };
     let mut acc = T::zero();
     for el in (0..scene.probe.n_elements).step_by(8) {

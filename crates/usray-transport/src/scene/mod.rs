@@ -13,7 +13,9 @@ pub mod params;
 mod schema;
 
 pub use lift::{MaterialT, ObjectT, SceneT};
-pub use schema::{Acquisition, Emission, Imaging, Material, Medium, Object, Probe, ShapeKind};
+pub use schema::{
+    Acquisition, Emission, Imaging, Material, Medium, Object, Probe, Sampler, ShapeKind,
+};
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

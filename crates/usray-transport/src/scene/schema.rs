@@ -68,6 +68,9 @@ pub struct Acquisition {
     /// How primary ray directions are chosen (default `"cosine"`).
     #[serde(default)]
     pub emission: Emission,
+    /// How an element's rays draw their random numbers (default `"independent"`).
+    #[serde(default)]
+    pub sampler: Sampler,
     /// Receivers each scattering event connects to (default: all `n_elements`,
     /// a deterministic sum with weight 1). `K < n_elements` draws one element per
     /// stratum of `n_elements/K` (weight `n_elements/K`); `1` is the paper's
@@ -90,6 +93,25 @@ pub enum Emission {
     /// direction `(sin θ, 0, cos θ)` with weight `f_d = cos θ` (paper eq.
     /// `directivity` at that direction). No edge waves; far less noise.
     PlaneWave,
+}
+
+/// How the rays of one element and transmit draw their random numbers
+/// (`acquisition.sampler`; [`crate::rng`]). Both are unbiased; they differ in
+/// variance, and so in the fixed-seed loss landscapes fits descend
+/// (`docs/performance.md`, "Samplers": the stratified one has 3–12× less
+/// variance at equal cost, but from experiment 2's starts its fits fell into
+/// the impedance's mirror basin more often, so it is not yet the default).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Sampler {
+    /// A Latin hypercube over the element's rays: for every decision of a path
+    /// (emission point, microfacet normal, …) the rays fall one in each of
+    /// `rays_per_element` strata of `[0, 1)`
+    /// ([`crate::rng::PathSampler::stratified`]).
+    Stratified,
+    /// Every ray draws independently (the default).
+    #[default]
+    Independent,
 }
 
 /// `[imaging]`: the beamformer's grid and assumptions.
