@@ -16,6 +16,12 @@
 //! stratified): how many times more rays the independent sampler needs for the
 //! same noise.
 //!
+//! The two samplers' mean *energy* ratios differ by a few standard errors
+//! because a render's energy is the signal's plus its noise variance, which the
+//! samplers do not share; the channel data themselves have one expectation
+//! (`tests/sampler.rs`, and `docs/performance.md`, "Samplers", for the ratio of
+//! the expected data from cross products of independent renders).
+//!
 //! Run: `cargo bench -p usray-transport --bench sampler`
 
 use std::time::Instant;
