@@ -21,6 +21,29 @@ fn unknown_key_names_file_and_key() {
 }
 
 #[test]
+fn misspelt_sampler_names_key_and_choices() {
+    let e = err(&base().replace(
+        "emission = \"plane_wave\"",
+        "emission = \"plane_wave\"\nsampler = \"stratifed\"",
+    ));
+    assert_eq!(e.key, "acquisition.sampler", "{e}");
+    assert!(e.message.contains("`stratified` or `independent`"), "{e}");
+    let ok = Scene::from_toml_str(
+        &base().replace(
+            "emission = \"plane_wave\"",
+            "emission = \"plane_wave\"\nsampler = \"stratified\"",
+        ),
+        "ok.toml",
+        scene_path(""),
+    )
+    .unwrap();
+    assert_eq!(
+        ok.acquisition.sampler,
+        usray_transport::scene::Sampler::Stratified
+    );
+}
+
+#[test]
 fn wrong_type_names_key() {
     let e = err(&base().replace("radius_m = 0.005", "radius_m = \"five\""));
     assert!(
