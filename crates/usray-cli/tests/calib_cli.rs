@@ -343,6 +343,11 @@ fn diagnose_writes_report_with_parameter_spreads() {
         !report.contains("EchoPosition {"),
         "debug output in report.md"
     );
+    // The calibrated impedance comes with its mirror Z₁²/Z (water's 1.54 MRayl
+    // around the cylinder), which a B-mode barely tells from it.
+    let z = params["materials.target.impedance_mrayl"].as_f64().unwrap();
+    let mirror = format!("its mirror `Z₁²/Z` = {:.3} MRayl", 1.54 * 1.54 / z);
+    assert!(report.contains(&mirror), "report.md lacks `{mirror}`");
     // Without a named effect the report says what the data cannot rule out.
     let named = !["none", "unexplained"].contains(&v["verdict"]["effect"].as_str().unwrap());
     assert_eq!(

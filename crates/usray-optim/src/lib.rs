@@ -36,6 +36,7 @@ mod diagnose;
 mod fd;
 mod fit;
 mod loss;
+mod mirror;
 mod objective;
 mod params;
 mod reference;
@@ -52,6 +53,7 @@ pub use diagnose::{
 pub use fd::{fd_sweep, log_steps, FdPoint};
 pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};
 pub use loss::L1L2;
+pub use mirror::impedance_mirror;
 pub use objective::{
     grid_shape, DualReplay, Evaluation, FdChannels, Objective, PathReplay, TransportGradient,
     PAIRED_SEED_OFFSET,

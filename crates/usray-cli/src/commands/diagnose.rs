@@ -104,7 +104,15 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
     )?;
     out.write_text(
         "report.md",
-        &report(&d, scene_path, measured, wall, scale_before, scale_after)?,
+        &report(
+            &d,
+            &scene,
+            scene_path,
+            measured,
+            wall,
+            scale_before,
+            scale_after,
+        )?,
     )?;
     eprintln!(
         "usray diagnose: verdict {} (held-out shrink {:.2}); calibrated loss {:.4e}, noise level {:.4e}; {:.1} s; wrote diagnosis.json, report.md and images to {}",
@@ -121,6 +129,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
 /// The story of a diagnosis, with its figures.
 fn report(
     d: &Diagnosis,
+    base: &Scene,
     scene: &Path,
     measured: &Path,
     wall: f64,
@@ -199,6 +208,11 @@ fn report(
     for (p, v) in &d.calibrated.params {
         let std = d.calibrated.params_std.get(p).copied().flatten();
         writeln!(r, "| `{p}` | {v:.6e} | {} |", std_text(std))?;
+    }
+    for (p, v) in &d.calibrated.params {
+        if let Some(m) = usray_optim::impedance_mirror(base, p, *v) {
+            writeln!(r, "\n**`{p}` = {v:.3} MRayl or {m:.3}?** A B-mode barely tells an impedance `Z` from its mirror `Z₁²/Z` = {m:.3} MRayl (`Z₁` = {:.3} MRayl, the background's): the wall reflects with the opposite sign and passes with the same `1 − R²`, which the envelope does not show. Which side of `Z₁` the fit lands on depends on its start; knowing whether the target is denser than its surroundings decides it.", base.medium.impedance_mrayl)?;
+        }
     }
     writeln!(r, "\n±: the standard deviation the fitted value would have under the simulation's Monte Carlo noise (a linearised fit repeated on {} independent noise realisations, `usray_optim::parameter_spread`). It counts noise only: where parameters trade against each other, or the loss is biased, the error can be many times larger (docs/diagnosis.md, \"How well each parameter is determined\").", d.spread_pairs)?;
     writeln!(
