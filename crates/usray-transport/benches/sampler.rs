@@ -18,9 +18,11 @@
 //!
 //! The two samplers' mean *energy* ratios differ by a few standard errors
 //! because a render's energy is the signal's plus its noise variance, which the
-//! samplers do not share; the channel data themselves have one expectation
-//! (`tests/sampler.rs`, and `docs/performance.md`, "Samplers", for the ratio of
-//! the expected data from cross products of independent renders).
+//! samplers do not share. The ratio of the energies of the *expected* data,
+//! estimated without that bias from cross products of distinct renders,
+//! `Σ_{i≠j} ⟨P_i, P_j⟩ / (n(n−1))` in each window, with a jackknife standard
+//! error, must agree between the samplers (and `tests/sampler.rs` checks a
+//! linear functional of the data).
 //!
 //! Run: `cargo bench -p usray-transport --bench sampler`
 
@@ -57,9 +59,46 @@ struct Runs {
     ratios_db: Vec<f64>,
     data: Vec<Vec<f64>>,
     seconds: Vec<f64>,
+    /// Each render's samples in the near and the far wall's window.
+    windows: Vec<[Vec<f64>; 2]>,
 }
 
 impl Runs {
+    /// Far/near energy ratio (dB) of the expected data over the renders `keep`:
+    /// each window's `Σ_{i≠j} ⟨P_i, P_j⟩` (unbiased for `‖E P‖²`).
+    fn expected_ratio_db(&self, keep: &[usize]) -> f64 {
+        let cross = |w: usize| -> f64 {
+            let n = self.windows[0][w].len();
+            let mut sum = vec![0.0; n];
+            let mut squares = 0.0;
+            for &i in keep {
+                for (s, x) in sum.iter_mut().zip(&self.windows[i][w]) {
+                    *s += x;
+                    squares += x * x;
+                }
+            }
+            sum.iter().map(|s| s * s).sum::<f64>() - squares
+        };
+        10.0 * (cross(1) / cross(0)).log10()
+    }
+
+    /// [`Runs::expected_ratio_db`] over every render and its jackknife
+    /// standard error.
+    fn expected_ratio_with_se(&self) -> (f64, f64) {
+        let n = self.windows.len();
+        let all: Vec<usize> = (0..n).collect();
+        let leave_one: Vec<f64> = (0..n)
+            .map(|i| {
+                let keep: Vec<usize> = (0..n).filter(|&j| j != i).collect();
+                self.expected_ratio_db(&keep)
+            })
+            .collect();
+        let m = leave_one.iter().sum::<f64>() / n as f64;
+        let var =
+            (n - 1) as f64 / n as f64 * leave_one.iter().map(|x| (x - m).powi(2)).sum::<f64>();
+        (self.expected_ratio_db(&all), var.sqrt())
+    }
+
     fn relative_noise(&self) -> f64 {
         let energy: f64 = self
             .data
@@ -106,6 +145,7 @@ fn main() {
                 ratios_db: vec![],
                 data: vec![],
                 seconds: vec![],
+                windows: vec![],
             })
             .collect();
         for seed in 0..SEEDS {
@@ -136,6 +176,17 @@ fn main() {
                 runs[k]
                     .ratios_db
                     .push(10.0 * (energy(&far) / energy(&near)).log10());
+                let window = |range: &std::ops::Range<usize>| -> Vec<f64> {
+                    ch.samples
+                        .chunks(ch.n_samples)
+                        .flat_map(|rec| {
+                            rec[range.start.min(rec.len())..range.end.min(rec.len())]
+                                .iter()
+                                .copied()
+                        })
+                        .collect()
+                };
+                runs[k].windows.push([window(&near), window(&far)]);
                 runs[k].data.push(ch.samples);
             }
         }
@@ -144,13 +195,14 @@ fn main() {
             base.acquisition.rays_per_element
         );
         println!(
-            "| sampler | far/near ratio, dB (mean ± sd) | relative channel noise | s/render |"
+            "| sampler | far/near ratio, dB (mean ± sd) | of the expected data (± SE) | relative channel noise | s/render |"
         );
-        println!("|---|---|---|---|");
+        println!("|---|---|---|---|---|");
         for (k, label) in ["independent", "stratified"].iter().enumerate() {
             let (m, sd) = mean_sd(&runs[k].ratios_db);
+            let (e, se) = runs[k].expected_ratio_with_se();
             println!(
-                "| {label} | {m:+.3} ± {sd:.3} | {:.4e} | {:.3} |",
+                "| {label} | {m:+.3} ± {sd:.3} | {e:+.3} ± {se:.3} | {:.4e} | {:.3} |",
                 runs[k].relative_noise(),
                 median(runs[k].seconds.clone())
             );
