@@ -1,7 +1,8 @@
 //! Command-line grammar of `usray` (CONTRACT §4).
 
-use clap::{Args, Parser, Subcommand};
+use clap::{Args, Parser, Subcommand, ValueEnum};
 use std::path::PathBuf;
+use usray_transport::{scene::Sampler, RenderOptions};
 
 /// usray: differentiable ultrasound simulation by Monte Carlo ray tracing.
 ///
@@ -31,6 +32,59 @@ pub struct Common {
     pub quiet: bool,
 }
 
+/// How a command that renders samples the scene: overrides of its
+/// `[acquisition]`.
+#[derive(Debug, Clone, Args)]
+pub struct Sampling {
+    /// Override the scene's `acquisition.rays_per_element`.
+    #[arg(long, value_name = "N")]
+    pub rays: Option<usize>,
+    /// Override the scene's `acquisition.seed` (a diagnosis's held-out data use
+    /// other seeds: seed + 1, then 2³³ apart).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Override the scene's `acquisition.sampler`: `stratified` (the rays of each
+    /// element stratified for every decision: about 5× less Monte Carlo variance
+    /// at the same cost) or `independent`.
+    #[arg(long, value_enum)]
+    pub sampler: Option<SamplerArg>,
+}
+
+impl Sampling {
+    /// The render options these overrides and `threads` (0: every core) give.
+    ///
+    /// # Errors
+    /// `--rays 0`.
+    pub fn render_options(&self, threads: usize) -> anyhow::Result<RenderOptions> {
+        anyhow::ensure!(self.rays != Some(0), "--rays must be at least 1");
+        Ok(RenderOptions {
+            threads: (threads > 0).then_some(threads),
+            rays_per_element: self.rays,
+            seed: self.seed,
+            sampler: self.sampler.map(Sampler::from),
+            ..Default::default()
+        })
+    }
+}
+
+/// `--sampler` (`acquisition.sampler`).
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SamplerArg {
+    /// A Latin hypercube over each element's rays.
+    Stratified,
+    /// Independent rays.
+    Independent,
+}
+
+impl From<SamplerArg> for Sampler {
+    fn from(s: SamplerArg) -> Self {
+        match s {
+            SamplerArg::Stratified => Sampler::Stratified,
+            SamplerArg::Independent => Sampler::Independent,
+        }
+    }
+}
+
 /// The subcommands of CONTRACT §4.
 #[derive(Debug, Subcommand)]
 pub enum Command {
@@ -47,12 +101,9 @@ pub enum Command {
     Render {
         /// Scene file (TOML, CONTRACT §3).
         scene: PathBuf,
-        /// Override the scene's `acquisition.seed`.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Override the scene's `acquisition.rays_per_element`.
-        #[arg(long, value_name = "N")]
-        rays: Option<usize>,
+        /// Rays, seed and sampler.
+        #[command(flatten)]
+        sampling: Sampling,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,
@@ -105,12 +156,9 @@ pub enum Command {
         /// parameter's range down to 1e-5 of it) and plot FD vs AD.
         #[arg(long)]
         fd_sweep: bool,
-        /// Override the scene's `acquisition.rays_per_element`.
-        #[arg(long, value_name = "N")]
-        rays: Option<usize>,
-        /// Override the scene's `acquisition.seed`.
-        #[arg(long)]
-        seed: Option<u64>,
+        /// Rays, seed and sampler.
+        #[command(flatten)]
+        sampling: Sampling,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,
@@ -143,12 +191,9 @@ pub enum Command {
         /// surface's roughness low at few rays). Twice the renders per iteration.
         #[arg(long)]
         paired: bool,
-        /// Override the scene's `acquisition.rays_per_element`.
-        #[arg(long, value_name = "N")]
-        rays: Option<usize>,
-        /// Override the scene's `acquisition.seed`.
-        #[arg(long)]
-        seed: Option<u64>,
+        /// Rays, seed and sampler.
+        #[command(flatten)]
+        sampling: Sampling,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,
@@ -174,13 +219,9 @@ pub enum Command {
         /// on the full-size cylinder a sound-speed error scored third).
         #[arg(long, value_name = "N", default_value_t = 3)]
         confirm: usize,
-        /// Override the scene's `acquisition.rays_per_element`.
-        #[arg(long, value_name = "N")]
-        rays: Option<usize>,
-        /// Override the scene's `acquisition.seed` (held-out data use other
-        /// seeds: seed + 1, then 2³³ apart).
-        #[arg(long)]
-        seed: Option<u64>,
+        /// Rays, seed and sampler.
+        #[command(flatten)]
+        sampling: Sampling,
         /// Independent seeds on which every held-out loss (and the noise level)
         /// is averaged; shrinks and excesses over the null refit carry a
         /// standard error when at least 2.

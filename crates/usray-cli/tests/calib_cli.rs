@@ -535,3 +535,62 @@ fn diagnose_holds_out_measured_frames() {
         "missing.npy",
     );
 }
+
+/// `--sampler stratified` renders exactly what the scene key
+/// `acquisition.sampler = "stratified"` does, and other data than the default
+/// independent sampler; `--rays 0` is refused before anything is written.
+#[test]
+fn sampler_flag_equals_the_scene_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let keyed = dir.path().join("keyed.toml");
+    let text = std::fs::read_to_string(&scene).unwrap().replace(
+        "emission = \"plane_wave\"",
+        "emission = \"plane_wave\"\nsampler = \"stratified\"",
+    );
+    assert!(text.contains("sampler = \"stratified\""));
+    std::fs::write(&keyed, text).unwrap();
+    let render = |scene: &str, out: &str, extra: &[&str]| -> Vec<u8> {
+        let out = dir.path().join(out);
+        let mut args = vec!["render", scene, "--out", out.to_str().unwrap(), "--quiet"];
+        args.extend_from_slice(extra);
+        let o = usray(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::read(out.join("channels.npy")).unwrap()
+    };
+    let flag = render(s, "flag", &["--sampler", "stratified"]);
+    let key = render(keyed.to_str().unwrap(), "key", &[]);
+    let default = render(s, "default", &[]);
+    assert_eq!(flag, key, "--sampler stratified differs from the scene key");
+    let info: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("flag/render.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(info["sampler"], "stratified");
+    assert_ne!(flag, default, "the stratified sampler changed nothing");
+    let keyed_back = render(
+        keyed.to_str().unwrap(),
+        "back",
+        &["--sampler", "independent"],
+    );
+    assert_eq!(
+        keyed_back, default,
+        "--sampler independent does not override the key"
+    );
+    let out = dir.path().join("zero");
+    let o = usray(&["render", s, "--rays", "0", "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--rays must be at least 1"));
+    assert!(!out.exists(), "--rays 0 left {out:?} behind");
+    let o = usray(&[
+        "render",
+        s,
+        "--sampler",
+        "sobol",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("stratified"));
+}

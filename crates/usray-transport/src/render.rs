@@ -21,7 +21,7 @@ use crate::integrator::{
     element_stack, trace_path_from, trace_path_within, Deposit, Horizon, TraceCounters,
     TraceSettings,
 };
-use crate::scene::{Scene, SceneError, SceneT};
+use crate::scene::{Sampler, Scene, SceneError, SceneT};
 use rayon::prelude::*;
 use std::time::Instant;
 use usray_ad::Real;
@@ -43,6 +43,8 @@ pub struct RenderOptions {
     /// Override of `acquisition.receivers_per_event` (`Some(1)`: the paper's
     /// single uniformly chosen receiver per interaction).
     pub receivers_per_event: Option<usize>,
+    /// Override of `acquisition.sampler`.
+    pub sampler: Option<Sampler>,
 }
 
 /// Emitting elements per work chunk (fixed, so the chunking and hence the
@@ -94,7 +96,7 @@ pub fn settings(scene: &Scene, opts: &RenderOptions) -> TraceSettings {
             .receivers_per_event
             .or(scene.acquisition.receivers_per_event)
             .unwrap_or(0),
-        sampler: scene.acquisition.sampler,
+        sampler: opts.sampler.unwrap_or(scene.acquisition.sampler),
     }
 }
 

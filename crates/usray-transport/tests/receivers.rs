@@ -28,6 +28,7 @@ fn stratified_receivers_are_unbiased() {
                 receivers_per_event: k,
                 impulse_only: true,
                 threads: Some(2),
+                ..Default::default()
             };
             let (d, _) = render(&scene, &opts).unwrap();
             let fs = d.meta.sampling_frequency_hz;

@@ -345,19 +345,12 @@ pub fn build_objective(
     scene_path: &std::path::Path,
     reference: &std::path::Path,
     params: &[String],
-    rays: Option<usize>,
-    seed: Option<u64>,
+    sampling: &crate::cli::Sampling,
     threads: usize,
 ) -> Result<Objective> {
     let scene = Scene::load(scene_path)?;
     let specs = parse_params(&scene, params)?;
-    anyhow::ensure!(rays != Some(0), "--rays must be at least 1");
+    let opts = sampling.render_options(threads)?;
     let reference = usray_optim::load_reference(reference, &scene)?;
-    let opts = usray_transport::RenderOptions {
-        threads: (threads > 0).then_some(threads),
-        rays_per_element: rays,
-        seed,
-        ..Default::default()
-    };
     Ok(Objective::new(scene, reference, specs, opts)?)
 }

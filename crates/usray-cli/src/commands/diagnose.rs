@@ -1,7 +1,7 @@
 //! `usray diagnose SCENE --measured REF`: calibrate, locate the residual, rank and
 //! confirm candidate effects, verdict (CONTRACT §4–5; `usray_optim::diagnose`).
 
-use crate::cli::Common;
+use crate::cli::{Common, Sampling};
 use crate::output::{spinner, OutDir};
 use crate::plots::residual_png;
 use anyhow::Result;
@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 use usray_optim::{diagnose, DiagnoseOptions, Diagnosis};
 use usray_signal::io::write_bmode_png;
-use usray_transport::{RenderOptions, Scene};
+use usray_transport::Scene;
 
 /// Settings of `usray diagnose`.
 pub struct DiagnoseArgs {
@@ -19,10 +19,8 @@ pub struct DiagnoseArgs {
     pub iters: usize,
     /// Candidates confirmed by a refit.
     pub confirm: usize,
-    /// Ray override.
-    pub rays: Option<usize>,
-    /// Seed override.
-    pub seed: Option<u64>,
+    /// Rays, seed and sampler.
+    pub sampling: Sampling,
     /// Held-out seeds averaged over.
     pub held_out_seeds: usize,
     /// The paired loss throughout.
@@ -37,7 +35,6 @@ pub struct DiagnoseArgs {
 pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Common) -> Result<()> {
     let scene = Scene::load(scene_path)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
-    anyhow::ensure!(args.rays != Some(0), "--rays must be at least 1");
     anyhow::ensure!(
         args.held_out_seeds >= 1,
         "--held-out-seeds must be at least 1"
@@ -64,12 +61,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         held_out_seeds: args.held_out_seeds,
         paired: args.paired,
         held_out_measured,
-        render: RenderOptions {
-            threads: (common.threads > 0).then_some(common.threads),
-            rays_per_element: args.rays,
-            seed: args.seed,
-            ..Default::default()
-        },
+        render: args.sampling.render_options(common.threads)?,
         ..Default::default()
     };
     let out = OutDir::create(&common.out)?;

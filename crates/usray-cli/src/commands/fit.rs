@@ -1,7 +1,7 @@
 //! `usray fit SCENE --reference REF --params … [--iters N]`.
 
 use super::calib::{build_objective, progress_bar, write_fit_outputs};
-use crate::cli::Common;
+use crate::cli::{Common, Sampling};
 use crate::output::OutDir;
 use anyhow::Result;
 use std::path::Path;
@@ -17,10 +17,8 @@ pub struct FitArgs {
     pub batches: usize,
     /// The paired loss (two renders with independent seeds).
     pub paired: bool,
-    /// Ray override.
-    pub rays: Option<usize>,
-    /// Seed override.
-    pub seed: Option<u64>,
+    /// Rays, seed and sampler.
+    pub sampling: Sampling,
 }
 
 /// Runs the fit and writes its outputs.
@@ -31,14 +29,7 @@ pub fn run(
     args: &FitArgs,
     common: &Common,
 ) -> Result<()> {
-    let mut objective = build_objective(
-        scene,
-        reference,
-        params,
-        args.rays,
-        args.seed,
-        common.threads,
-    )?;
+    let mut objective = build_objective(scene, reference, params, &args.sampling, common.threads)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
     set_batches(&mut objective, args.batches)?;
     if args.paired {

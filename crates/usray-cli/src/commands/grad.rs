@@ -3,7 +3,7 @@
 use super::calib::{
     best_fd, build_objective, fd_sweeps, grad_json, progress_bar, write_sweep_plots,
 };
-use crate::cli::Common;
+use crate::cli::{Common, Sampling};
 use crate::output::{spinner, OutDir};
 use anyhow::Result;
 use std::path::Path;
@@ -14,11 +14,10 @@ pub fn run(
     reference: &Path,
     params: &[String],
     fd_sweep: bool,
-    rays: Option<usize>,
-    seed: Option<u64>,
+    sampling: &Sampling,
     common: &Common,
 ) -> Result<()> {
-    let objective = build_objective(scene, reference, params, rays, seed, common.threads)?;
+    let objective = build_objective(scene, reference, params, sampling, common.threads)?;
     let at = objective.initial_physical();
     let bar = spinner(common.quiet, "loss and gradient");
     let eval = objective.value_and_gradient(&at)?;

@@ -1,39 +1,27 @@
 //! `usray render SCENE`: channel data, B-mode and render statistics.
 
-use crate::cli::Common;
+use crate::cli::{Common, Sampling};
 use crate::output::{spinner, OutDir};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::Path;
 use usray_signal::{write_channels, BMode, ChannelData};
-use usray_transport::{render, RenderOptions, Scene};
+use usray_transport::{render, Scene};
 
 /// Renders `scene` into `common.out`.
-pub fn run(
-    scene_path: &Path,
-    seed: Option<u64>,
-    rays: Option<usize>,
-    common: &Common,
-) -> Result<()> {
+pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()> {
     let scene = Scene::load(scene_path)?;
-    if rays == Some(0) {
-        anyhow::bail!("--rays must be at least 1");
-    }
+    let opts = sampling.render_options(common.threads)?;
     let out = OutDir::create(&common.out)?;
     let bar = spinner(common.quiet, &format!("tracing {}", scene_path.display()));
-    let opts = RenderOptions {
-        threads: (common.threads > 0).then_some(common.threads),
-        rays_per_element: rays,
-        seed,
-        ..Default::default()
-    };
     let (channels, stats) = render(&scene, &opts)?;
     bar.finish_and_clear();
     write_channels(out.path("channels.json"), &channels)?;
     let bmode = beamform_to(&scene, &channels, &out)?;
     let info = json!({
         "scene": scene_path.display().to_string(),
-        "seed": seed.unwrap_or(scene.acquisition.seed),
+        "seed": opts.seed.unwrap_or(scene.acquisition.seed),
+        "sampler": opts.sampler.unwrap_or(scene.acquisition.sampler),
         "rays_traced": stats.rays_traced,
         "paths": stats.paths,
         "deposits": stats.deposits,
