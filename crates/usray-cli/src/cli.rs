@@ -1,6 +1,6 @@
 //! Command-line grammar of `usray` (CONTRACT §4).
 
-use clap::{Args, Parser, Subcommand, ValueEnum};
+use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 use usray_transport::{scene::Sampler, RenderOptions};
 
@@ -46,8 +46,8 @@ pub struct Sampling {
     /// Override the scene's `acquisition.sampler`: `stratified` (the rays of each
     /// element stratified for every decision: about 5× less Monte Carlo variance
     /// at the same cost) or `independent`.
-    #[arg(long, value_enum)]
-    pub sampler: Option<SamplerArg>,
+    #[arg(long, value_name = "NAME")]
+    pub sampler: Option<Sampler>,
 }
 
 impl Sampling {
@@ -61,27 +61,9 @@ impl Sampling {
             threads: (threads > 0).then_some(threads),
             rays_per_element: self.rays,
             seed: self.seed,
-            sampler: self.sampler.map(Sampler::from),
+            sampler: self.sampler,
             ..Default::default()
         })
-    }
-}
-
-/// `--sampler` (`acquisition.sampler`).
-#[derive(Debug, Clone, Copy, ValueEnum)]
-pub enum SamplerArg {
-    /// A Latin hypercube over each element's rays.
-    Stratified,
-    /// Independent rays.
-    Independent,
-}
-
-impl From<SamplerArg> for Sampler {
-    fn from(s: SamplerArg) -> Self {
-        match s {
-            SamplerArg::Stratified => Sampler::Stratified,
-            SamplerArg::Independent => Sampler::Independent,
-        }
     }
 }
 

@@ -71,15 +71,8 @@ fn main() {
         std::process::exit(2)
     });
     // `--sampler=NAME`: `acquisition.sampler` of the base scene (data and model).
-    if let Some(name) = option_value::<String>(&options, "--sampler") {
-        base.acquisition.sampler = match name.as_str() {
-            "stratified" => Sampler::Stratified,
-            "independent" => Sampler::Independent,
-            other => {
-                eprintln!("--sampler must be `stratified` or `independent`, found `{other}`");
-                std::process::exit(2)
-            }
-        };
+    if let Some(sampler) = option_value::<Sampler>(&options, "--sampler") {
+        base.acquisition.sampler = sampler;
     }
     let (draws, rays, iters) = (parse(1), parse(2), parse(3));
     let render = RenderOptions {

@@ -12,15 +12,10 @@ use usray_transport::{channel_gradient, render, RenderOptions, Scene};
 const REPEATS: usize = 3;
 
 include!("common/cylinder_params.rs");
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+include!("common/bench_util.rs");
 
 fn main() {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cylinder.toml");
-    let scene = Scene::load(p).expect("scene");
+    let scene = scene("cylinder.toml");
     let opts = RenderOptions::default();
     let (d, _) = render(&scene, &opts).expect("render");
     let w: Vec<f64> = d.samples.iter().map(|v| v.signum() * 1e-3).collect();

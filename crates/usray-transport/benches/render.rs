@@ -19,17 +19,7 @@ use usray_transport::{render, RenderOptions, Scene};
 
 const REPEATS: usize = 5;
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
-fn scene(name: &str) -> Scene {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../scenes")
-        .join(name);
-    Scene::load(p).expect("scene")
-}
+include!("common/bench_util.rs");
 
 fn bench_render(scene: &Scene, threads: usize) -> (f64, f64, u64) {
     let opts = RenderOptions {

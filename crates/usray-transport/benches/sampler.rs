@@ -36,17 +36,7 @@ const SEEDS: u64 = 16;
 /// Half-width of each wall's depth window, m.
 const WINDOW_M: f64 = 1.5e-3;
 
-fn scene(name: &str) -> Scene {
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../scenes")
-        .join(name);
-    Scene::load(p).expect("scene")
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
+include!("common/bench_util.rs");
 
 fn mean_sd(v: &[f64]) -> (f64, f64) {
     let m = v.iter().sum::<f64>() / v.len() as f64;
@@ -162,20 +152,6 @@ fn main() {
                 let t = Instant::now();
                 let (ch, _) = render(&s, &opts).expect("render");
                 runs[k].seconds.push(t.elapsed().as_secs_f64());
-                let energy = |range: &std::ops::Range<usize>| -> f64 {
-                    ch.samples
-                        .chunks(ch.n_samples)
-                        .map(|rec| {
-                            rec[range.start.min(rec.len())..range.end.min(rec.len())]
-                                .iter()
-                                .map(|x| x * x)
-                                .sum::<f64>()
-                        })
-                        .sum()
-                };
-                runs[k]
-                    .ratios_db
-                    .push(10.0 * (energy(&far) / energy(&near)).log10());
                 let window = |range: &std::ops::Range<usize>| -> Vec<f64> {
                     ch.samples
                         .chunks(ch.n_samples)
@@ -186,8 +162,13 @@ fn main() {
                         })
                         .collect()
                 };
-                runs[k].windows.push([window(&near), window(&far)]);
+                let (near_w, far_w) = (window(&near), window(&far));
+                let energy = |w: &[f64]| w.iter().map(|x| x * x).sum::<f64>();
+                runs[k]
+                    .ratios_db
+                    .push(10.0 * (energy(&far_w) / energy(&near_w)).log10());
                 runs[k].data.push(ch.samples);
+                runs[k].windows.push([near_w, far_w]);
             }
         }
         println!(

@@ -289,14 +289,34 @@ mod tests {
         assert!(corr.abs() < 4.0 * 0.0071, "correlation {corr}");
     }
 
+    /// With one ray the sampler draws what the independent sampler drew before
+    /// stratification existed: the formula of that version, written out.
     #[test]
     fn one_ray_is_the_independent_sampler() {
-        let a = PathSampler::new(5, 1, 2, 0);
-        let b = PathSampler::stratified(5, 1, 2, 0, 1);
-        assert_eq!(a.uniform(1, 4).to_bits(), b.uniform(1, 4).to_bits());
-        assert_eq!(
-            a.branch(1).uniform(2, 0).to_bits(),
-            b.branch(1).uniform(2, 0).to_bits()
+        let old_base = |seed: u64, tx: u64, el: u64, ray: u64| {
+            fold(fold(fold(mix64(seed ^ 0x5851_f42d_4c95_7f2d), tx), el), ray)
+        };
+        let old_uniform = |base: u64, bounce: u64, dim: u64| {
+            (fold(fold(base, bounce), dim) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+        };
+        let base = old_base(5, 1, 2, 9);
+        let branched = fold(base, 0x6272_616e_6368 ^ 1);
+        for s in [
+            PathSampler::new(5, 1, 2, 9),
+            PathSampler::stratified(5, 1, 2, 9, 1),
+        ] {
+            assert_eq!(s.uniform(1, 4).to_bits(), old_uniform(base, 1, 4).to_bits());
+            assert_eq!(
+                s.branch(1).uniform(2, 0).to_bits(),
+                old_uniform(branched, 2, 0).to_bits()
+            );
+        }
+        // Stratified over several rays, the numbers differ.
+        assert_ne!(
+            PathSampler::stratified(5, 1, 2, 1, 4)
+                .uniform(1, 4)
+                .to_bits(),
+            old_uniform(old_base(5, 1, 2, 1), 1, 4).to_bits()
         );
     }
 }

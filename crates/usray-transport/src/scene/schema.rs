@@ -114,6 +114,27 @@ pub enum Sampler {
     Independent,
 }
 
+impl core::str::FromStr for Sampler {
+    type Err = String;
+
+    /// The scene file's spelling: `"stratified"` or `"independent"`.
+    ///
+    /// ```
+    /// use usray_transport::scene::Sampler;
+    /// assert_eq!("stratified".parse(), Ok(Sampler::Stratified));
+    /// assert!("sobol".parse::<Sampler>().unwrap_err().contains("`independent`"));
+    /// ```
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "stratified" => Ok(Self::Stratified),
+            "independent" => Ok(Self::Independent),
+            other => Err(format!(
+                "unknown sampler `{other}`, expected `stratified` or `independent`"
+            )),
+        }
+    }
+}
+
 /// `[imaging]`: the beamformer's grid and assumptions.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
