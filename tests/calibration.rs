@@ -161,17 +161,19 @@ fn transmit_micro_batches_sum_to_the_full_gradient() {
 
 /// Experiment 2 at CI size: from radius +10%, impedance −25%, roughness ×2,
 /// recover radius within 1%, impedance within 5%, roughness within 15% in at most
-/// 150 iterations (100 here), the loss falling by at least 100×.
+/// 150 iterations (100 here), the loss falling by at least 100×. Measured (dev
+/// profile, loaded 2-core machine, 55 s): radius 3.0e-4, impedance 1.4e-3,
+/// roughness 1.4e-3 relative, loss ×177.
 ///
 /// Known fragility: the start's 1.49 MRayl lies below water's 1.54, on the
 /// side of the `R = 0` ridge where the loss has a mirror basin at `Z₁²/Z₂` =
 /// 1.192 MRayl (an envelope cannot see the sign of `R`). The fit first moves to
 /// the ridge, then leaves it on one side: with this seed it reaches the truth;
-/// with acquisition seeds 1–4 three of four fits do, and with the stratified
-/// sampler one of four (`docs/performance.md`, "Samplers"). A change that
-/// makes this test fail may only have tipped the fit to the other side. Measured (dev
-/// profile, loaded 2-core machine, 55 s): radius 3.0e-4, impedance 1.4e-3,
-/// roughness 1.4e-3 relative, loss ×177.
+/// with acquisition seeds 1–4 three of four fits do, with the stratified
+/// sampler one of four, and with 150 iterations two of four
+/// (`docs/performance.md`, "Samplers"). A change that
+/// makes this test fail may only have tipped the fit to the other side
+/// (`experiment2_starts_and_samplers`, ignored, runs the study).
 #[test]
 fn experiment2_recovers_cylinder_from_simulated_reference() {
     let truth = small_scene();
@@ -334,5 +336,76 @@ fn paired_loss_removes_the_roughness_bias_of_the_one_render_loss() {
             "one-render roughness {} not below {r_true}",
             plain[0]
         );
+    }
+}
+
+/// Experiment 2's fit from impedance −25% and +25%, acquisition seeds 1–4, with
+/// each sampler, 150 iterations (the budget): the study behind
+/// `docs/performance.md`, "Samplers". Every fit either recovers the parameters
+/// (experiment 2's tolerances) or ends on the far side of the background's `Z₁`, in
+/// the mirror basin of `Z₁²/Z₂` (or at its range's bound on the way there):
+/// the only way this fit is known to fail. Diagnostic, ignored (16 fits,
+/// minutes in the release profile):
+/// `cargo test --release --test calibration experiment2_starts -- --ignored --nocapture`.
+#[test]
+#[ignore = "diagnostic: 16 experiment-2 fits; minutes in the release profile"]
+fn experiment2_starts_and_samplers() {
+    use usray::transport::scene::Sampler;
+    let paths = [
+        "objects.cylinder.radius_m",
+        "materials.target.impedance_mrayl",
+        "materials.target.roughness",
+    ];
+    for factor in [0.75, 1.25] {
+        for sampler in [Sampler::Independent, Sampler::Stratified] {
+            for seed in 1..=4u64 {
+                let mut truth = small_scene();
+                truth.acquisition.sampler = sampler;
+                truth.acquisition.seed = seed;
+                let o = opts(RAYS);
+                let reference = reference_of(&truth, &o);
+                let true_v: Vec<f64> = paths.iter().map(|p| truth.get(p).unwrap()).collect();
+                let start_v: Vec<f64> = true_v
+                    .iter()
+                    .zip([1.1, factor, 2.0])
+                    .map(|(v, f)| v * f)
+                    .collect();
+                let mut start = truth.clone();
+                let mut specs = Vec::new();
+                for (p, v) in paths.iter().zip(&start_v) {
+                    start.set(p, *v).unwrap();
+                    specs.push(ParamSpec::parse(p, *v).unwrap());
+                }
+                let mut obj = Objective::new(start, reference, specs, o).unwrap();
+                let r = fit(
+                    &mut obj,
+                    &start_v,
+                    &FitOptions {
+                        iters: 150,
+                        ..Default::default()
+                    },
+                    |_| {},
+                )
+                .unwrap();
+                let err = |i: usize| (r.final_params[i] - true_v[i]) / true_v[i];
+                // Experiment 2's parameter tolerances (its loss ×100 is printed).
+                let recovered = err(0).abs() < 0.01 && err(1).abs() < 0.05 && err(2).abs() < 0.15;
+                let z1 = truth.medium.impedance_mrayl;
+                eprintln!(
+                    "impedance ×{factor} {sampler:?} seed {seed}: Z {:.3} (mirror {:.3}), radius {:+.4}, roughness {:+.4}, loss ×{:.1}: {}",
+                    r.final_params[1],
+                    z1 * z1 / true_v[1],
+                    err(0),
+                    err(2),
+                    r.history[0].loss / r.final_loss,
+                    if recovered { "recovered" } else { "not recovered" }
+                );
+                assert!(
+                    recovered || r.final_params[1] < z1,
+                    "impedance ×{factor} {sampler:?} seed {seed}: failed on the truth's side of Z₁ (Z {})",
+                    r.final_params[1]
+                );
+            }
+        }
     }
 }

@@ -99,8 +99,9 @@ pub enum Emission {
 /// (`acquisition.sampler`; [`crate::rng`]). Both are unbiased; they differ in
 /// variance, and so in the fixed-seed loss landscapes fits descend
 /// (`docs/performance.md`, "Samplers": the stratified one has 3–12× less
-/// variance at equal cost, but from experiment 2's starts its fits fell into
-/// the impedance's mirror basin more often, so it is not yet the default).
+/// variance at equal cost; experiment 2's test, validated with the independent
+/// one, lands in the impedance's mirror basin with it, so it is not yet the
+/// default).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Sampler {
