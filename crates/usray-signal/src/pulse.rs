@@ -50,6 +50,57 @@ pub fn pulse_dt<T: Real>(t: T, fc: T, cycles: T) -> T {
     (w * (w * t).cos() - T::from_f64(2.0) * t / sigma * (w * t).sin()) * env
 }
 
+/// `σ_f` in Hz: the standard deviation of the pulse's amplitude spectrum about
+/// `f_c`. The envelope `exp(−t²/σ)` is a Gaussian of standard deviation
+/// `σ_t = √(σ/2)` in time, whose Fourier transform is a Gaussian of standard
+/// deviation `σ_f = 1/(2π σ_t)`, so `σ_f² = 1/(2π² σ)` (3 cycles at 5 MHz:
+/// 0.625 MHz).
+///
+/// ```
+/// use usray_signal::pulse::pulse_bandwidth_hz;
+/// let sf = pulse_bandwidth_hz(5e6_f64, 3.0);
+/// assert!((sf - 0.6246e6).abs() < 1e2);
+/// ```
+pub fn pulse_bandwidth_hz<T: Real>(fc: T, cycles: T) -> T {
+    let pi2 = core::f64::consts::PI * core::f64::consts::PI;
+    (pulse_sigma(fc, cycles).scale(2.0 * pi2)).recip().sqrt()
+}
+
+/// The pulse with its carrier moved **down** by `s` spectral standard
+/// deviations, the envelope unchanged: `sin(2π (f_c − s σ_f) t)·exp(−t²/σ)`
+/// ([`pulse_bandwidth_hz`]). This is exactly what a frequency-linear
+/// attenuation does to a Gaussian pulse (Kuc, *IEEE Trans. Sonics Ultrason.*
+/// 1984: the spectrum `E(f − f_c)·e^{−βf}` is `E` centred on `f_c − βσ_f²`,
+/// scaled by `e^{−βf_c + β²σ_f²/2}`). `s = 0` gives [`pulse`] bit for bit.
+///
+/// ```
+/// use usray_signal::pulse::{pulse, shifted_pulse};
+/// assert_eq!(shifted_pulse(0.1e-6_f64, 5e6, 3.0, 0.0), pulse(0.1e-6_f64, 5e6, 3.0));
+/// ```
+pub fn shifted_pulse<T: Real>(t: T, fc: T, cycles: T, s: f64) -> T {
+    if s == 0.0 {
+        return pulse(t, fc, cycles);
+    }
+    let sigma = pulse_sigma(fc, cycles);
+    let f = fc - pulse_bandwidth_hz(fc, cycles).scale(s);
+    (f.scale(2.0 * core::f64::consts::PI) * t).sin() * (-(t * t) / sigma).exp()
+}
+
+/// `∂/∂s` of [`shifted_pulse`]: `−2π σ_f t·cos(2π (f_c − s σ_f) t)·exp(−t²/σ)`.
+///
+/// ```
+/// use usray_signal::pulse::{shifted_pulse, shifted_pulse_ds};
+/// let (t, s, h) = (0.13e-6_f64, 0.4, 1e-6);
+/// let fd = (shifted_pulse(t, 5e6, 3.0, s + h) - shifted_pulse(t, 5e6, 3.0, s - h)) / (2.0 * h);
+/// assert!((fd - shifted_pulse_ds(t, 5e6, 3.0, s)).abs() < 1e-8);
+/// ```
+pub fn shifted_pulse_ds<T: Real>(t: T, fc: T, cycles: T, s: f64) -> T {
+    let sigma = pulse_sigma(fc, cycles);
+    let sf = pulse_bandwidth_hz(fc, cycles);
+    let w = (fc - sf.scale(s)).scale(2.0 * core::f64::consts::PI);
+    -(sf.scale(2.0 * core::f64::consts::PI) * t * (w * t).cos() * (-(t * t) / sigma).exp())
+}
+
 /// Half-width (s) beyond which the pulse envelope is below 1e-7 of its peak:
 /// `4√σ` (`exp(−16) = 1.1e-7`).
 pub fn pulse_support_s(fc: f64, cycles: f64) -> f64 {

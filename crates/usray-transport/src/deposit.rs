@@ -37,13 +37,23 @@ pub fn splat<T: Real>(record: &mut [T], t0: f64, fs: f64, tau: T, a: T) {
 /// `y = x ⋆ taps` with centred taps (odd length `2K+1`, tap `K` at `t = 0`):
 /// `y[n] = Σ_k taps[k]·x[n − (k − K)]`, zero outside the record.
 pub fn convolve<T: Real>(x: &[T], taps: &[f64], y: &mut [T]) {
-    let k0 = (taps.len() / 2) as isize;
-    let n = x.len() as isize;
     for v in y.iter_mut() {
         *v = T::zero();
     }
+    convolve_add(x, taps, y);
+}
+
+/// `y += x ⋆ taps` ([`convolve`] without clearing `y`): the records of the
+/// down-shift nodes add into one ([`crate::downshift`]).
+pub fn convolve_add<T: Real>(x: &[T], taps: &[f64], y: &mut [T]) {
+    let k0 = (taps.len() / 2) as isize;
+    let n = x.len() as isize;
+    // Empty samples are skipped in `f64` only: an AD type compares values, and
+    // a sample of value 0 can still carry a derivative (a down-shift slope
+    // record at zero attenuation, a splat at a fraction of exactly 0).
+    let sparse = std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>();
     for (j, &xj) in x.iter().enumerate() {
-        if xj == T::zero() {
+        if sparse && xj == T::zero() {
             continue;
         }
         for (k, &t) in taps.iter().enumerate() {

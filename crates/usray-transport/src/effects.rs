@@ -3,7 +3,9 @@
 //! - **attenuation**: amplitude factor `10^(−α·f_MHz·d_cm/20)` along every segment
 //!   of length `d` in a medium with `α` dB/(cm·MHz), at the centre frequency `f_c`
 //!   (the usual linear-in-frequency power law, Szabo, *Diagnostic Ultrasound
-//!   Imaging*, §4.2, evaluated at `f_c` only: no pulse down-shift).
+//!   Imaging*, §4.2), and the echo's spectral down-shift: the path's exponent
+//!   `β = Σ α_i d_i` ([`attenuation_exponent`]) moves its carrier down by
+//!   `βσ_f²` ([`crate::downshift`]).
 //! - **depth_gain**: the scanner's time-gain, amplitude factor
 //!   `10^(g·(c·t/2 in cm)/20)` on a deposit at time `t`, `c` the imaging speed.
 //! - **volume_scattering**: sub-resolution scatterers inside a material — see
@@ -28,6 +30,21 @@ pub fn attenuation<T: Real>(alpha_db_cm_mhz: T, fc: T, d: T) -> T {
         return T::one() + x;
     }
     x.exp()
+}
+
+/// The attenuation exponent per hertz of a segment, `β = α·d` in Np/Hz for
+/// `alpha_db_cm_mhz` dB/(cm·MHz) over `d` metres: `α·(100 d)·10⁻⁶·ln 10/20`.
+/// [`attenuation`] is `e^{−β f_c}`; the path's sum of `β` sets the spectral
+/// down-shift of its echo ([`crate::downshift`]).
+///
+/// ```
+/// use usray_transport::effects::{attenuation, attenuation_exponent};
+/// let (a, d, fc) = (0.5_f64, 0.02, 5e6);
+/// assert!((attenuation(a, fc, d) - (-attenuation_exponent(a, d) * fc).exp()).abs() < 1e-15);
+/// ```
+#[inline]
+pub fn attenuation_exponent<T: Real>(alpha_db_cm_mhz: T, d: T) -> T {
+    (alpha_db_cm_mhz * d).scale(1e-6 * 100.0 * DB_TO_NEPER_AMPLITUDE)
 }
 
 /// Amplitude factor of depth gain `g` dB/cm at time `t` s for imaging speed `c`:

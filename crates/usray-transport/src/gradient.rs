@@ -18,6 +18,11 @@
 //!    `G' = g ⋆ ∂s/∂θ` (derivative taps from `usray_signal::pulse::pulse` in a
 //!    dual). `f_c` also enters the attenuation inside the paths, which step 2
 //!    covers.
+//! 4. With attenuation, a deposit of shift `x` is placed through the
+//!    down-shift nodes' records `b` with weights `c_b(x)` ([`crate::downshift`]):
+//!    with `G_b = g ⋆ taps_b`, `ā = Σ_b c_b·interp(G_b)(τ)`,
+//!    `τ̄ = a·f_s·Σ_b c_b·(G_b[i+1] − G_b[i])` and `x̄ = a·Σ_b c_b'(x)·interp(G_b)(τ)`;
+//!    the pulse terms of step 3 are taken per record the same way.
 //!
 //! # Mode
 //! Up to [`REVERSE_MIN_PARAMS`]` − 1` parameters: forward [`Dual`] passes of at
@@ -110,28 +115,52 @@ pub fn channel_gradient(
     }
     let fs = scene.acquisition.sampling_frequency_hz;
     let (fc, cycles) = (scene.probe.center_frequency_hz, scene.probe.cycles);
-    // Step 1: G = g ⋆ s, and g ⋆ ∂s/∂f_c, g ⋆ ∂s/∂cycles when either is asked for.
+    // Step 1: G_b = g ⋆ taps_b for the render's records `b` (the pulse, or the
+    // down-shift nodes' records), each followed by g ⋆ ∂taps_b/∂f_c and
+    // g ⋆ ∂taps_b/∂cycles when either is asked for.
     let want_pulse = params.iter().any(|p| *p == FC || *p == CYCLES);
+    let differentiated = params.iter().any(|p| p.ends_with(".attenuation_db_cm_mhz"));
+    let nodes = if opts.impulse_only {
+        1
+    } else {
+        crate::downshift::node_count(scene, differentiated)
+    };
+    let n_buf = if nodes == 1 { 1 } else { 2 * nodes };
     let taps = (!opts.impulse_only).then(|| {
-        let taps = usray_signal::pulse::pulse_taps(fs, fc, cycles);
-        let mut all = vec![taps];
-        if want_pulse {
-            let k = (all[0].len() / 2) as i64;
-            let dtaps: Vec<[f64; 2]> = (-k..=k)
-                .map(|i| {
-                    usray_signal::pulse::pulse(
-                        Dual::<2>::from_f64(i as f64 / fs),
-                        Dual::variable(fc, 0),
-                        Dual::variable(cycles, 1),
-                    )
-                    .eps
-                })
-                .collect();
-            all.extend((0..2).map(|m| dtaps.iter().map(|d| d[m]).collect::<Vec<_>>()));
+        let mut values = crate::downshift::node_taps(fs, fc, cycles, nodes);
+        values.truncate(n_buf);
+        if !want_pulse {
+            return values;
+        }
+        let mut dtaps = crate::downshift::node_taps_with(fs, fc, cycles, nodes, |t, s, slope| {
+            let (t, f, c) = (
+                Dual::<2>::from_f64(t),
+                Dual::variable(fc, 0),
+                Dual::variable(cycles, 1),
+            );
+            if slope {
+                usray_signal::pulse::shifted_pulse_ds(t, f, c, s).eps
+            } else {
+                usray_signal::pulse::shifted_pulse(t, f, c, s).eps
+            }
+        });
+        dtaps.truncate(n_buf);
+        let mut all = Vec::with_capacity(3 * n_buf);
+        for (v, d) in values.into_iter().zip(dtaps) {
+            all.push(v);
+            all.extend((0..2).map(|m| d.iter().map(|e| e[m]).collect::<Vec<_>>()));
         }
         all
     });
-    let adj = Adjoint::new(d_channels, taps.as_deref(), opts.threads, n_samples, t0, fs);
+    let adj = Adjoint::new(
+        d_channels,
+        taps.as_deref(),
+        nodes,
+        opts.threads,
+        n_samples,
+        t0,
+        fs,
+    );
     let s = settings(scene, opts);
     let mut grad = vec![0.0; params.len()];
     if params.len() >= REVERSE_MIN_PARAMS {
@@ -156,21 +185,26 @@ pub fn channel_gradient(
 
 /// The adjoint records and the sample grid.
 struct Adjoint {
-    /// Per sample of the channel layout, `stride` values: `G = g ⋆ s`, then
-    /// `[g ⋆ ∂s/∂f_c, g ⋆ ∂s/∂cycles]` when a pulse-shape parameter is asked
-    /// for. Interleaved so that the look-ups of one deposit share cache lines
-    /// (the records a path deposits into are megabytes apart).
+    /// Per sample of the channel layout, `stride` values: for each of the
+    /// render's records `b` (one, or two per down-shift node), `G_b = g ⋆ s_b`,
+    /// then `[g ⋆ ∂s_b/∂f_c, g ⋆ ∂s_b/∂cycles]` when a pulse-shape parameter is
+    /// asked for. Interleaved so that the look-ups of one deposit share cache
+    /// lines (the records a path deposits into are megabytes apart).
     g: Vec<f64>,
-    /// Values per sample in `g`: 1, or 3 with the pulse terms.
+    /// Values per sample in `g`: `per_record` times the number of records.
     stride: usize,
+    /// Values per record: 1, or 3 with the pulse terms.
+    per_record: usize,
+    /// Down-shift nodes (`crate::downshift::node_count`); 1 = the plain pulse.
+    nodes: usize,
     n_samples: usize,
     t0: f64,
     fs: f64,
 }
 
 /// A deposit awaiting its adjoint weights: offset of its record in channel
-/// layout, its amplitude and time values, and the derivative carrier `P`.
-type Pending<P> = (usize, f64, f64, P);
+/// layout, its amplitude, time and shift values, and the derivative carrier `P`.
+type Pending<P> = (usize, f64, f64, f64, P);
 
 impl Adjoint {
     /// The records `g ⋆ t` of `d_channels = g` for each `t` of `taps` (the
@@ -180,6 +214,7 @@ impl Adjoint {
     fn new(
         d_channels: &[f64],
         taps: Option<&[Vec<f64>]>,
+        nodes: usize,
         threads: Option<usize>,
         n_samples: usize,
         t0: f64,
@@ -211,9 +246,12 @@ impl Adjoint {
                 (g, stride)
             }
         };
+        let records = if nodes == 1 { 1 } else { 2 * nodes };
         Self {
             g,
             stride,
+            per_record: (stride / records).max(1),
+            nodes,
             n_samples,
             t0,
             fs,
@@ -222,14 +260,22 @@ impl Adjoint {
 
     /// Number of pulse terms (the length of a `pulse_acc`).
     fn n_pulse(&self) -> usize {
-        self.stride - 1
+        self.per_record - 1
     }
 
-    /// For a deposit of value `a` at time value `tau` on record `rec` (offset of
-    /// the record in channel layout): `(ā, τ̄)` and the pulse terms
-    /// `a·interp(G'_m)(τ)` added into `pulse_acc`. `None` when the splat drops it.
+    /// For a deposit of value `a` at time value `tau` with shift `x` on record
+    /// `rec` (offset of the record in channel layout): `(ā, τ̄, x̄)` and the
+    /// pulse terms `a·Σ_b c_b·interp(G'_{b,m})(τ)` added into `pulse_acc`
+    /// (module docs, steps 2–4). `None` when the splat drops it.
     #[inline]
-    fn weights(&self, rec: usize, a: f64, tau: f64, pulse_acc: &mut [f64]) -> Option<(f64, f64)> {
+    fn weights(
+        &self,
+        rec: usize,
+        a: f64,
+        tau: f64,
+        x: f64,
+        pulse_acc: &mut [f64],
+    ) -> Option<(f64, f64, f64)> {
         // Same arithmetic as `deposit::splat` on values.
         let s = (tau - self.t0) * self.fs;
         if !s.is_finite() || s <= -1.0 {
@@ -249,15 +295,33 @@ impl Adjoint {
                 0.0
             }
         };
-        let (g0, g1) = (at(0, i), at(0, i + 1.0));
-        for (m, acc) in pulse_acc.iter_mut().enumerate() {
-            *acc += a * ((1.0 - f) * at(m + 1, i) + f * at(m + 1, i + 1.0));
+        if self.nodes == 1 {
+            let (g0, g1) = (at(0, i), at(0, i + 1.0));
+            for (m, acc) in pulse_acc.iter_mut().enumerate() {
+                *acc += a * ((1.0 - f) * at(m + 1, i) + f * at(m + 1, i + 1.0));
+            }
+            return Some(((1.0 - f) * g0 + f * g1, a * self.fs * (g1 - g0), 0.0));
         }
-        Some(((1.0 - f) * g0 + f * g1, a * self.fs * (g1 - g0)))
+        // The Hermite weights and their derivatives in x (step 4).
+        let basis = crate::downshift::basis(Dual::<1>::variable(x, 0), self.nodes);
+        let (mut ab, mut tb, mut xb) = (0.0, 0.0, 0.0);
+        for (b, c) in basis {
+            let base = b * self.per_record;
+            let (g0, g1) = (at(base, i), at(base, i + 1.0));
+            let gi = (1.0 - f) * g0 + f * g1;
+            ab += c.re * gi;
+            tb += c.re * (g1 - g0);
+            xb += c.eps[0] * gi;
+            for (m, acc) in pulse_acc.iter_mut().enumerate() {
+                let k = base + m + 1;
+                *acc += a * c.re * ((1.0 - f) * at(k, i) + f * at(k, i + 1.0));
+            }
+        }
+        Some((ab, a * self.fs * tb, a * xb))
     }
 
     /// Look up the weights of the `pending` deposits, in order, and hand each
-    /// kept deposit's carrier and `(ā, τ̄)` to `use_weights`; `pending` is
+    /// kept deposit's carrier and `(ā, τ̄, x̄)` to `use_weights`; `pending` is
     /// emptied. Done in a batch after the deposits were made rather than one
     /// by one inside the tracer, so that the independent look-ups (cache misses
     /// in records megabytes apart) overlap each other.
@@ -265,11 +329,11 @@ impl Adjoint {
         &self,
         pending: &mut Vec<Pending<P>>,
         pulse_acc: &mut [f64],
-        mut use_weights: impl FnMut(P, f64, f64),
+        mut use_weights: impl FnMut(P, f64, f64, f64),
     ) {
-        for (rec, a, tau, carrier) in pending.drain(..) {
-            if let Some((ab, tb)) = self.weights(rec, a, tau, pulse_acc) {
-                use_weights(carrier, ab, tb);
+        for (rec, a, tau, x, carrier) in pending.drain(..) {
+            if let Some((ab, tb, xb)) = self.weights(rec, a, tau, x, pulse_acc) {
+                use_weights(carrier, ab, tb, xb);
             }
         }
     }
@@ -331,19 +395,21 @@ fn dual_pass<const N: usize>(
                 let mut acc = [0.0; N];
                 let mut pulse_acc = vec![0.0; adj.n_pulse()];
                 let mut pending = Vec::with_capacity(SETTLE_BATCH);
-                // `ā·∂a + τ̄·∂τ` of a deposit, in deposit order.
-                let mut add = |(da, dt): ([f64; N], [f64; N]), ab: f64, tb: f64| {
-                    for j in 0..N {
-                        acc[j] += ab * da[j] + tb * dt[j];
-                    }
-                };
+                // `ā·∂a + τ̄·∂τ + x̄·∂x` of a deposit, in deposit order.
+                let mut add =
+                    |(da, dt, dx): ([f64; N], [f64; N], [f64; N]), ab: f64, tb: f64, xb: f64| {
+                        for j in 0..N {
+                            acc[j] += ab * da[j] + tb * dt[j] + xb * dx[j];
+                        }
+                    };
                 trace_block_within(&st, s, *tx, els.clone(), window, |d: Deposit<Dual<N>>| {
                     let rec = record_offset(*tx, d.element, n_el, adj.n_samples);
                     pending.push((
                         rec,
                         d.amplitude.re,
                         d.time.re,
-                        (d.amplitude.eps, d.time.eps),
+                        d.shift.re,
+                        (d.amplitude.eps, d.time.eps, d.shift.eps),
                     ));
                     if pending.len() == SETTLE_BATCH {
                         adj.settle(&mut pending, &mut pulse_acc, &mut add);
@@ -425,15 +491,19 @@ fn reverse_pass(
                             window,
                             |d: Deposit<Var>| {
                                 let r = record_offset(*tx, d.element, n_el, adj.n_samples);
-                                let (a, tau) = (d.amplitude, d.time);
-                                pending.push((r, a.value(), tau.value(), (a, tau)));
+                                let (a, tau, x) = (d.amplitude, d.time, d.shift);
+                                pending.push((r, a.value(), tau.value(), x.value(), (a, tau, x)));
                             },
                         );
                         ys.clear();
                         ws.clear();
-                        adj.settle(&mut pending, &mut pulse_acc, |(a, tau), ab, tb| {
+                        adj.settle(&mut pending, &mut pulse_acc, |(a, tau, x), ab, tb, xb| {
                             ys.extend([a, tau]);
                             ws.extend([ab, tb]);
+                            if xb != 0.0 {
+                                ys.push(x);
+                                ws.push(xb);
+                            }
                         });
                         if !ys.is_empty() {
                             rec.vjp(&ys, &ws, &mut acc);

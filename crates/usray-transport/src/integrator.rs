@@ -65,7 +65,7 @@
 //! on the connection, as in the paper; total internal reflection blocks it) and
 //! the attenuation of every medium; time accumulates `length / c` per medium.
 
-use crate::effects::{attenuation, depth_gain, ScattererField};
+use crate::effects::{attenuation, attenuation_exponent, depth_gain, ScattererField};
 use crate::fresnel::fresnel;
 use crate::ggx::{Interface, SMOOTH_ALPHA};
 use crate::probe::{
@@ -96,6 +96,11 @@ pub struct Deposit<T> {
     pub amplitude: T,
     /// Time of flight `τ` on the clock of CONTRACT §1, seconds.
     pub time: T,
+    /// Spectral shift `x = −β σ_f` of the echo's carrier, in standard
+    /// deviations `σ_f` of the pulse spectrum (≤ 0; 0 without attenuation):
+    /// the pulse to place is [`usray_signal::pulse::shifted_pulse`] at `s = −x`
+    /// ([`crate::downshift`]). `amplitude` includes its factor `e^{x²/2}`.
+    pub shift: T,
 }
 
 /// Fixed settings of a trace.
@@ -272,6 +277,8 @@ struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     st: &'a SceneT<T>,
     settings: &'a TraceSettings,
     norm: T,
+    /// `σ_f` of the pulse spectrum, Hz (`usray_signal::pulse::pulse_bandwidth_hz`).
+    sigma_f: T,
     /// The elements' receive directivity.
     lobe: ReceiveLobe<T>,
     /// Deposits from this time on are dropped by the caller (`None`: keep all).
@@ -291,11 +298,19 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         self.st.geometry.intersect(ray, T_MIN, t_max)
     }
 
-    /// Deposit on element `e`, applying the depth gain and the `1/rays` norm.
-    fn deposit(&mut self, e: usize, a: T, tau: T) {
+    /// Deposit on element `e` an echo of amplitude `a` (attenuated at `f_c`)
+    /// whose path has the attenuation exponent `beta` (Np/Hz), at time `tau`:
+    /// applies the depth gain, the `1/rays` norm and the down-shift's
+    /// amplitude factor `e^{x²/2}`, `x = −βσ_f` ([`crate::downshift`]).
+    fn deposit(&mut self, e: usize, a: T, beta: T, tau: T) {
         let st = self.st;
         let g = depth_gain(st.depth_gain_db_per_cm, st.imaging_sound_speed, tau);
-        let amplitude = a * g * self.norm;
+        let shift = -(beta * self.sigma_f);
+        let mut amplitude = a * g * self.norm;
+        if shift.value() != 0.0 {
+            // At x = 0 the factor is 1 with zero derivative: skipped.
+            amplitude *= (shift * shift).scale(0.5).exp();
+        }
         if amplitude.value() == 0.0 || !amplitude.is_finite() || !tau.is_finite() {
             return;
         }
@@ -304,6 +319,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             element: e as u32,
             amplitude,
             time: tau,
+            shift,
         });
     }
 
@@ -354,7 +370,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
 
     /// Receiver connection from `p` along `link` (medium stack `stack` on the
     /// side the connection leaves into) with scattering factor `f_cos` (1/sr)
-    /// and path amplitude `w` at time `tau`, estimator weight `sel_w` (see
+    /// and path amplitude `w` and attenuation exponent `beta` at time `tau`, estimator weight `sel_w` (see
     /// [`TraceSettings::receivers`]). `p_bsdf` is the density (1/sr) with which
     /// the vertex's own continuation sampling would produce the connection
     /// direction (0 for volume scatterers): an unobstructed connection is then
@@ -365,6 +381,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         p: Vec3<T>,
         mut stack: MediumStack,
         w: T,
+        beta: T,
         f_cos: T,
         tau: T,
         link: &Link<T>,
@@ -383,6 +400,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         }
         // Trace the straight segment, crossing boundaries.
         let mut amp = w * f_cos;
+        let mut beta = beta;
         let mut time = tau;
         let mut origin = p;
         let mut remaining = r;
@@ -392,6 +410,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             let Some(hit) = hit else {
                 time += remaining / medium.sound_speed;
                 amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, remaining);
+                beta += attenuation_exponent(medium.attenuation_db_cm_mhz, remaining);
                 let solid = st.element_width * st.elevation * cos_e / (r * r);
                 // Unobstructed: the continuation could have hit the element too.
                 let mis = if crossing == 0 && p_bsdf.value() > 0.0 {
@@ -400,11 +419,12 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     T::one()
                 };
                 let a = amp * solid * fd.scale(sel_w) * mis;
-                self.deposit(e, a, time);
+                self.deposit(e, a, beta, time);
                 return;
             };
             time += hit.t / medium.sound_speed;
             amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
+            beta += attenuation_exponent(medium.attenuation_db_cm_mhz, hit.t);
             remaining -= hit.t;
             let entering = hit.entering(&wo);
             let other = if entering {
@@ -430,7 +450,8 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     }
 
     /// Volume scatterers along a segment of length `len` from `origin` along `dir`
-    /// in `medium` (inside object `obj`), path amplitude `w`, time `tau` at origin.
+    /// in `medium` (inside object `obj`), path amplitude `w`, attenuation
+    /// exponent `beta` and time `tau` at origin.
     #[allow(clippy::too_many_arguments)]
     fn volume(
         &mut self,
@@ -441,6 +462,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         dir: Vec3<T>,
         len: f64,
         w: T,
+        beta: T,
         tau: T,
         sampler: &PathSampler,
         bounce: u32,
@@ -472,6 +494,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 self.st.center_frequency,
                 along,
             );
+            let beta_q = beta + attenuation_exponent(medium.attenuation_db_cm_mhz, along);
             let f = (medium.scatterer_strength * density_weight)
                 .scale(g / (4.0 * core::f64::consts::PI));
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
@@ -479,7 +502,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {
                 if let Some(aim) = self.aim(q.to_f64(), e, t_q.value()) {
                     let link = self.link(q, &aim);
-                    self.connect(q, stack, a_q, f, t_q, &link, sel_w, T::zero());
+                    self.connect(q, stack, a_q, beta_q, f, t_q, &link, sel_w, T::zero());
                 }
             }
         }
@@ -514,6 +537,8 @@ struct Branch<T> {
     dir: Vec3<T>,
     /// Path amplitude so far.
     w: T,
+    /// Attenuation exponent so far, Np/Hz ([`attenuation_exponent`]).
+    beta: T,
     /// Time stamp at `origin`, s.
     time: T,
     stack: MediumStack,
@@ -612,6 +637,7 @@ fn trace<T: Real>(
         st,
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
+        sigma_f: usray_signal::pulse::pulse_bandwidth_hz(st.center_frequency, st.cycles),
         lobe: ReceiveLobe::new(st.main_lobe, st.cutoff),
         horizon,
         counters: TraceCounters::default(),
@@ -665,6 +691,7 @@ fn trace<T: Real>(
         origin,
         dir,
         w,
+        beta: T::zero(),
         time: transmit_delay(xe, st.angles[tx], st.imaging_sound_speed),
         stack: start_stack,
         specular_chain: true,
@@ -690,6 +717,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             origin,
             dir,
             mut w,
+            mut beta,
             mut time,
             stack,
             specular_chain,
@@ -718,7 +746,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         if let Some(obj) = stack.top() {
             if medium.scatterer_density_per_mm3.value() > 0.0 && seg_len.is_finite() {
                 self.volume(
-                    obj, &medium, stack, origin, dir, seg_len, w, time, &sampler, bounce,
+                    obj, &medium, stack, origin, dir, seg_len, w, beta, time, &sampler, bounce,
                 );
             }
         }
@@ -753,7 +781,8 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                         * fd
                         * mis
                         * attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, t_array);
-                    self.deposit(e, a, tau);
+                    let beta = beta + attenuation_exponent(medium.attenuation_db_cm_mhz, t_array);
+                    self.deposit(e, a, beta, tau);
                 }
             }
             return;
@@ -762,6 +791,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         // Step 4: advance to the interface.
         time += hit.t / medium.sound_speed;
         w *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
+        beta += attenuation_exponent(medium.attenuation_db_cm_mhz, hit.t);
         if bounce > settings.max_bounces {
             return;
         }
@@ -817,7 +847,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     if transmitted {
                         cstack.cross(hit.object, entering);
                     }
-                    self.connect(hit.point, cstack, w, f_cos, time, &link, sel_w, p_b);
+                    self.connect(hit.point, cstack, w, beta, f_cos, time, &link, sel_w, p_b);
                 }
             }
         }
@@ -846,6 +876,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 origin: hit.point,
                 dir: lobe.wo,
                 w: w_child,
+                beta,
                 time,
                 stack: child_stack,
                 specular_chain: specular_chain && !rough,

@@ -60,7 +60,8 @@
 //!   `t0_s = 0` ([`render::sample_grid`]).
 //! - **Pulse**: `usray_signal::pulse` (paper eq. `axial_sig`), envelope FWHM =
 //!   `cycles / f_c`, i.e. `σ = (cycles/(2 f_c))² / ln 2`; centred on the time of
-//!   flight.
+//!   flight. Attenuated echoes carry the pulse with its carrier moved down by
+//!   `βσ_f²` ([`downshift`]: the exact result for a Gaussian pulse).
 //! - **Amplitude**: emission weight 1 per ray; every deposit is divided by
 //!   `rays_per_element`, so data is the mean over an element's rays summed over
 //!   emitting elements. Weights are pressure amplitudes; reflection multiplies by
@@ -102,10 +103,12 @@
 //!
 //! Modules: [`scene`] (file, validation, parameters, lifting), [`probe`],
 //! [`fresnel`], [`ggx`], [`rng`], [`integrator`] (the path tracer),
-//! [`deposit`] (placing echoes in time), [`effects`], [`mod@render`] (parallel,
+//! [`deposit`] (placing echoes in time), [`downshift`] (the spectral
+//! down-shift of attenuated echoes), [`effects`], [`mod@render`] (parallel,
 //! reproducible accumulation), [`gradient`] (the transport gradient).
 
 pub mod deposit;
+pub mod downshift;
 pub mod effects;
 pub mod fresnel;
 pub mod ggx;

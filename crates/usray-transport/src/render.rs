@@ -221,22 +221,48 @@ pub fn render_lifted<T: Real>(
     let blocks = element_blocks(n_el);
     // The splat drops deposits past the records' end: they are not traced.
     let window = horizon(scene, st);
+    // Records per transmit: one for the plain pulse, or the value and slope
+    // records of each down-shift node (`crate::downshift`) when the scene
+    // attenuates. Impulse-only data place no pulse and ignore the shift.
+    // A render in an AD type carries the shift's derivative even where the
+    // attenuation is 0 (`node_count`'s `differentiated`).
+    let nodes = if opts.impulse_only {
+        1
+    } else {
+        let carries_derivatives = std::any::TypeId::of::<T>() != std::any::TypeId::of::<f64>();
+        crate::downshift::node_count(scene, carries_derivatives)
+    };
+    let n_buf = if nodes == 1 { 1 } else { 2 * nodes };
+    let (fc, cycles) = (scene.probe.center_frequency_hz, scene.probe.cycles);
     let taps = (!opts.impulse_only).then(|| {
-        usray_signal::pulse::pulse_taps(fs, scene.probe.center_frequency_hz, scene.probe.cycles)
+        if nodes == 1 {
+            vec![usray_signal::pulse::pulse_taps(fs, fc, cycles)]
+        } else {
+            crate::downshift::node_taps(fs, fc, cycles, nodes)
+        }
     });
+    let total = n_tx * rec_len;
     // One pool for the whole render (transmits in turn, blocks in parallel).
     let (samples, counters) = in_pool(opts.threads, || {
-        let mut impulses = vec![T::zero(); n_tx * rec_len];
+        // Record set `b` of every transmit at `b·total`.
+        let mut impulses = vec![T::zero(); n_buf * total];
         let mut counters = TraceCounters::default();
-        for (tx, out) in impulses.chunks_mut(rec_len).enumerate() {
+        for tx in 0..n_tx {
             let parts: Vec<(Vec<T>, TraceCounters)> = blocks
                 .par_iter()
                 .map(|els| {
-                    let mut buf = vec![T::zero(); rec_len];
+                    let mut buf = vec![T::zero(); n_buf * rec_len];
                     let cnt = trace_block_within(st, &s, tx, els.clone(), window, |d| {
-                        let e = d.element as usize;
-                        let rec = &mut buf[e * n_samples..(e + 1) * n_samples];
-                        crate::deposit::splat(rec, t0, fs, d.time, d.amplitude);
+                        let rec = d.element as usize * n_samples;
+                        if n_buf == 1 {
+                            let r = &mut buf[rec..rec + n_samples];
+                            crate::deposit::splat(r, t0, fs, d.time, d.amplitude);
+                        } else {
+                            for (b, c) in crate::downshift::basis(d.shift, nodes) {
+                                let r = &mut buf[b * rec_len + rec..b * rec_len + rec + n_samples];
+                                crate::deposit::splat(r, t0, fs, d.time, d.amplitude * c);
+                            }
+                        }
                     });
                     (buf, cnt)
                 })
@@ -245,18 +271,27 @@ pub fn render_lifted<T: Real>(
             for (buf, cnt) in parts {
                 counters.rays += cnt.rays;
                 counters.deposits += cnt.deposits;
-                for (o, v) in out.iter_mut().zip(buf) {
-                    *o += v;
+                for (b, part) in buf.chunks(rec_len).enumerate() {
+                    let out =
+                        &mut impulses[b * total + tx * rec_len..b * total + (tx + 1) * rec_len];
+                    for (o, v) in out.iter_mut().zip(part) {
+                        *o += *v;
+                    }
                 }
             }
         }
         let Some(taps) = taps else {
             return (impulses, counters);
         };
-        let mut out = vec![T::zero(); impulses.len()];
+        let mut out = vec![T::zero(); total];
         out.par_chunks_mut(n_samples)
-            .zip(impulses.par_chunks(n_samples))
-            .for_each(|(y, x)| crate::deposit::convolve(x, &taps, y));
+            .enumerate()
+            .for_each(|(r, y)| {
+                for (b, t) in taps.iter().enumerate() {
+                    let x = &impulses[b * total + r * n_samples..b * total + (r + 1) * n_samples];
+                    crate::deposit::convolve_add(x, t, y);
+                }
+            });
         (out, counters)
     });
     let paths = (n_tx * n_el * s.rays_per_element) as u64;

@@ -20,7 +20,8 @@ fn plane_text(extra_medium: &str, extra_acq: &str) -> String {
 
 /// Per-deposit ratio against the same paths without the effect (common random
 /// numbers make the deposit lists correspond one to one).
-fn ratios(with: &str) -> Vec<(f64, f64)> {
+/// Also each deposit's spectral shift ([`usray_transport::Deposit::shift`]).
+fn ratios(with: &str) -> Vec<(f64, f64, f64)> {
     let a = Scene::from_toml_str(with, "<with>", ".").unwrap();
     let b = Scene::from_toml_str(&plane_text("", ""), "<without>", ".").unwrap();
     let opts = RenderOptions::default();
@@ -31,7 +32,8 @@ fn ratios(with: &str) -> Vec<(f64, f64)> {
         assert_eq!(ca.len(), cb.len());
         for (x, y) in ca.iter().zip(cb) {
             assert_eq!(x.time, y.time);
-            out.push((x.time, x.amplitude / y.amplitude));
+            assert_eq!(y.shift, 0.0);
+            out.push((x.time, x.amplitude / y.amplitude, x.shift));
         }
     }
     assert!(out.len() > 10);
@@ -40,18 +42,85 @@ fn ratios(with: &str) -> Vec<(f64, f64)> {
 
 #[test]
 fn attenuation_follows_db_per_cm_per_mhz() {
-    // α = 0.5 dB/(cm·MHz) at 5 MHz over the whole path length c·τ (0° transmit:
-    // τ is the path time): amplitude 10^(−α·f·d_cm/20).
-    for (tau, r) in ratios(&plane_text("attenuation_db_cm_mhz = 0.5", "")) {
+    // α = 0.5 dB/(cm·MHz) over the whole path length d = c·τ (0° transmit: τ
+    // is the path time). Exponent β = α·d_cm·(ln 10/20)/1 MHz in Np/Hz; the
+    // echo of a Gaussian pulse (σ_f = 0.6246 MHz for 3 cycles at 5 MHz) has
+    // amplitude e^{−β f_c + β²σ_f²/2} and carrier shift x = −βσ_f spectral
+    // standard deviations (Kuc 1984; `usray_transport::downshift`).
+    let sigma_f = usray_signal::pulse::pulse_bandwidth_hz(5e6_f64, 3.0);
+    for (tau, r, x) in ratios(&plane_text("attenuation_db_cm_mhz = 0.5", "")) {
         let d_cm = 1540.0 * tau * 100.0;
-        let expected = 10f64.powf(-0.5 * 5.0 * d_cm / 20.0);
+        let beta = 0.5 * d_cm * std::f64::consts::LN_10 / 20.0 / 1e6;
+        let expected = (-beta * 5e6 + 0.5 * (beta * sigma_f).powi(2)).exp();
         assert!((r / expected - 1.0).abs() < 1e-9, "ratio {r} vs {expected}");
+        assert!(
+            (x + beta * sigma_f).abs() < 1e-9,
+            "shift {x} vs {}",
+            -beta * sigma_f
+        );
     }
+}
+
+/// Kuc's closed form (*IEEE Trans. Sonics Ultrason.* 31, 1984): a Gaussian
+/// pulse through a frequency-linear attenuation with exponent `β` (Np/Hz) comes
+/// back with its spectrum's centre moved down by `βσ_f²`. The echo of a flat
+/// interface 10.01 mm deep through α = 3 dB/(cm·MHz) (β = 6.91·10⁻⁷ Np/Hz:
+/// 270 kHz), measured as the power-weighted mean frequency of the centre element's
+/// record against the same scene without attenuation. The only approximation
+/// between the two is the pulse's interpolation between the down-shift nodes,
+/// below 5·10⁻⁴ of the pulse in L2 (`downshift` unit test); a relative pulse
+/// error `ε` moves a spectral mean by at most about `2εσ_f` (≈ 0.6 kHz), so
+/// the test allows 1 kHz.
+#[test]
+fn attenuation_moves_the_echo_spectrum_down_by_beta_sigma_f_squared() {
+    let centroid = |medium: &str| {
+        // A collimated bundle and a floor 10.01 mm deep: every deposit on the
+        // centre element arrives at 2d/c = 13 µs, on a sample (no echo pairs,
+        // no splat filter to tilt the spectrum).
+        let text = plane_text(medium, "emission = \"plane_wave\"").replace(
+            "center_m = [0.0, 0.0, 0.01]",
+            "center_m = [0.0, 0.0, 0.01001]",
+        );
+        let s = Scene::from_toml_str(&text, "<plane>", ".").unwrap();
+        let (d, _) = render(&s, &RenderOptions::default()).unwrap();
+        let rec = &d.samples[8 * d.n_samples..9 * d.n_samples];
+        let n = rec.len();
+        let fs = d.meta.sampling_frequency_hz;
+        let (mut num, mut den) = (0.0, 0.0);
+        for k in 1..n / 2 {
+            let w = -2.0 * std::f64::consts::PI * k as f64 / n as f64;
+            let (mut re, mut im) = (0.0, 0.0);
+            for (j, v) in rec.iter().enumerate() {
+                re += v * (w * j as f64).cos();
+                im += v * (w * j as f64).sin();
+            }
+            let p = re * re + im * im;
+            num += p * k as f64 * fs / n as f64;
+            den += p;
+        }
+        num / den
+    };
+    let f0 = centroid("");
+    let f1 = centroid("attenuation_db_cm_mhz = 3.0");
+    let sigma_f = usray_signal::pulse::pulse_bandwidth_hz(5e6_f64, 3.0);
+    let beta = 3.0 * 2.002 * std::f64::consts::LN_10 / 20.0 / 1e6;
+    let expected = -beta * sigma_f * sigma_f;
+    eprintln!(
+        "mean frequency {f0:.1} Hz → {f1:.1} Hz: shift {:.1} Hz, Kuc {expected:.1} Hz",
+        f1 - f0
+    );
+    assert!((f0 - 5e6).abs() < 1e3, "unattenuated mean frequency {f0}");
+    assert!(
+        ((f1 - f0) - expected).abs() < 1e3,
+        "shift {} vs {expected}",
+        f1 - f0
+    );
 }
 
 #[test]
 fn depth_gain_follows_db_per_cm_of_depth() {
-    for (tau, r) in ratios(&plane_text("", "depth_gain_db_per_cm = 1.5")) {
+    for (tau, r, x) in ratios(&plane_text("", "depth_gain_db_per_cm = 1.5")) {
+        assert_eq!(x, 0.0);
         let depth_cm = 1540.0 * tau / 2.0 * 100.0;
         let expected = 10f64.powf(1.5 * depth_cm / 20.0);
         assert!((r / expected - 1.0).abs() < 1e-9, "ratio {r} vs {expected}");
