@@ -85,7 +85,26 @@ fn equals_the_derivative_of_a_dual_render() {
 
 #[test]
 fn forward_and_reverse_modes_agree_and_threads_do_not_matter() {
-    let scene = cylinder();
+    modes_agree(&cylinder());
+}
+
+/// The same with attenuation in the medium and the cylinder: every deposit is
+/// placed through the down-shift nodes, and its shift carries a derivative.
+#[test]
+fn forward_and_reverse_modes_agree_with_attenuation() {
+    let mut scene = cylinder();
+    scene.set("medium.attenuation_db_cm_mhz", 0.5).unwrap();
+    scene
+        .set("materials.target.attenuation_db_cm_mhz", 0.7)
+        .unwrap();
+    assert!(usray_transport::downshift::node_count(&scene, false) >= 2);
+    modes_agree(&scene);
+}
+
+/// Reverse mode (12 parameters) against two forward calls of 6, and the bits
+/// of both with 1 and 2 threads.
+fn modes_agree(scene: &Scene) {
+    let scene = scene.clone();
     let o = opts(2, 2);
     let (d, _) = render(&scene, &o).unwrap();
     let w = weights(d.samples.len(), 11);
