@@ -39,7 +39,7 @@
 //! A scene without attenuation uses one record and the unshifted pulse: its
 //! data are those of the renderer without this module, bit for bit.
 
-use crate::render::sample_grid;
+use crate::render::{max_transmit_delay_s, sample_grid};
 use crate::scene::Scene;
 use usray_ad::Real;
 
@@ -85,14 +85,7 @@ pub fn node_count(scene: &Scene, differentiated: bool) -> usize {
     }
     let (n_samples, t0) = sample_grid(scene);
     let fs = scene.acquisition.sampling_frequency_hz;
-    let half_ap = 0.5 * (scene.probe.n_elements as f64 - 1.0) * scene.probe.pitch_m;
-    let max_sin = scene
-        .acquisition
-        .angles_deg
-        .iter()
-        .map(|a| a.to_radians().sin().abs())
-        .fold(0.0, f64::max);
-    let t_end = t0 + n_samples as f64 / fs + half_ap * max_sin / scene.imaging_sound_speed();
+    let t_end = t0 + n_samples as f64 / fs + max_transmit_delay_s(scene);
     let beta_max = crate::effects::attenuation_exponent(alpha_max, c_max * t_end);
     let s_max = beta_max
         * usray_signal::pulse::pulse_bandwidth_hz(

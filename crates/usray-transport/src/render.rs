@@ -70,6 +70,15 @@ pub struct RenderStats {
 pub fn sample_grid(scene: &Scene) -> (usize, f64) {
     let c = scene.imaging_sound_speed();
     let fs = scene.acquisition.sampling_frequency_hz;
+    let support =
+        usray_signal::pulse::pulse_support_s(scene.probe.center_frequency_hz, scene.probe.cycles);
+    let dur = 2.0 * scene.acquisition.max_depth_m / c + max_transmit_delay_s(scene) + support;
+    ((dur * fs).ceil() as usize + 1, 0.0)
+}
+
+/// The largest plane-wave transmit delay, s: `max_e |x_e sin θ| / c` with `c`
+/// the imaging speed (elements at `±(N_e − 1)·pitch/2`).
+pub(crate) fn max_transmit_delay_s(scene: &Scene) -> f64 {
     let half_ap = 0.5 * (scene.probe.n_elements as f64 - 1.0) * scene.probe.pitch_m;
     let max_sin = scene
         .acquisition
@@ -77,10 +86,7 @@ pub fn sample_grid(scene: &Scene) -> (usize, f64) {
         .iter()
         .map(|a| a.to_radians().sin().abs())
         .fold(0.0, f64::max);
-    let support =
-        usray_signal::pulse::pulse_support_s(scene.probe.center_frequency_hz, scene.probe.cycles);
-    let dur = 2.0 * scene.acquisition.max_depth_m / c + half_ap * max_sin / c + support;
-    ((dur * fs).ceil() as usize + 1, 0.0)
+    half_ap * max_sin / scene.imaging_sound_speed()
 }
 
 /// The trace settings of a render: the scene's, with `opts`' overrides.
