@@ -34,20 +34,75 @@ pub fn splat<T: Real>(record: &mut [T], t0: f64, fs: f64, tau: T, a: T) {
     }
 }
 
+/// [`splat`] of one deposit into several interleaved records at once: `records`
+/// holds `n_buf` values per sample (sample `k`'s value of record `b` at
+/// `k·n_buf + b`), and `amplitudes` lists `(b, a_b)`. The sample index and the
+/// fraction are found once, and one deposit's values share cache lines (the
+/// down-shift's four records per deposit, [`crate::downshift`]).
+#[inline]
+pub fn splat_interleaved<T: Real>(
+    records: &mut [T],
+    n_buf: usize,
+    t0: f64,
+    fs: f64,
+    tau: T,
+    amplitudes: &[(usize, T)],
+) {
+    let s = (tau - T::from_f64(t0)) * T::from_f64(fs);
+    let sv = s.value();
+    if !sv.is_finite() || sv <= -1.0 {
+        return;
+    }
+    let i = sv.floor();
+    let frac = s - T::from_f64(i);
+    let n = (records.len() / n_buf) as f64;
+    if i >= n {
+        return;
+    }
+    if i >= 0.0 {
+        let base = i as usize * n_buf;
+        for &(b, a) in amplitudes {
+            records[base + b] += a * (T::one() - frac);
+        }
+    }
+    if i + 1.0 < n {
+        let base = (i + 1.0) as usize * n_buf;
+        for &(b, a) in amplitudes {
+            records[base + b] += a * frac;
+        }
+    }
+}
+
+/// `y += Σ_b x_b ⋆ taps_b` for `n_buf` records interleaved in `x` (layout of
+/// [`splat_interleaved`]), each with its own centred taps (all of one odd
+/// length): [`convolve`] of every record, added into `y`.
+pub fn convolve_interleaved_add<T: Real>(x: &[T], n_buf: usize, taps: &[Vec<f64>], y: &mut [T]) {
+    let k0 = (taps[0].len() / 2) as isize;
+    let n = y.len() as isize;
+    let sparse = std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>();
+    for (j, xs) in x.chunks_exact(n_buf).enumerate() {
+        for (&xj, t) in xs.iter().zip(taps) {
+            if sparse && xj == T::zero() {
+                continue;
+            }
+            for (k, &tk) in t.iter().enumerate() {
+                let i = j as isize + (k as isize - k0);
+                if i >= 0 && i < n {
+                    y[i as usize] += xj.scale(tk);
+                }
+            }
+        }
+    }
+}
+
 /// `y = x ⋆ taps` with centred taps (odd length `2K+1`, tap `K` at `t = 0`):
 /// `y[n] = Σ_k taps[k]·x[n − (k − K)]`, zero outside the record.
 pub fn convolve<T: Real>(x: &[T], taps: &[f64], y: &mut [T]) {
+    let k0 = (taps.len() / 2) as isize;
+    let n = x.len() as isize;
     for v in y.iter_mut() {
         *v = T::zero();
     }
-    convolve_add(x, taps, y);
-}
-
-/// `y += x ⋆ taps` ([`convolve`] without clearing `y`): the records of the
-/// down-shift nodes add into one ([`crate::downshift`]).
-pub fn convolve_add<T: Real>(x: &[T], taps: &[f64], y: &mut [T]) {
-    let k0 = (taps.len() / 2) as isize;
-    let n = x.len() as isize;
     // Empty samples are skipped in `f64` only: an AD type compares values, and
     // a sample of value 0 can still carry a derivative (a down-shift slope
     // record at zero attenuation, a splat at a fraction of exactly 0).

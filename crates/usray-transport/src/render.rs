@@ -250,52 +250,58 @@ pub fn render_lifted<T: Real>(
     let total = n_tx * rec_len;
     // One pool for the whole render (transmits in turn, blocks in parallel).
     let (samples, counters) = in_pool(opts.threads, || {
-        // Record set `b` of every transmit at `b·total`.
+        // Records in channel order; with down-shift records, the `n_buf`
+        // values of a sample side by side (`deposit::splat_interleaved`).
         let mut impulses = vec![T::zero(); n_buf * total];
         let mut counters = TraceCounters::default();
+        // One buffer per block, reused by every transmit (cleared after its
+        // reduction): fresh buffers cost a page fault per 4 KiB each time.
+        let mut bufs: Vec<Vec<T>> = blocks
+            .iter()
+            .map(|_| vec![T::zero(); n_buf * rec_len])
+            .collect();
         for tx in 0..n_tx {
-            let parts: Vec<(Vec<T>, TraceCounters)> = blocks
+            let counts: Vec<TraceCounters> = blocks
                 .par_iter()
-                .map(|els| {
-                    let mut buf = vec![T::zero(); n_buf * rec_len];
-                    let cnt = trace_block_within(st, &s, tx, els.clone(), window, |d| {
-                        let rec = d.element as usize * n_samples;
+                .zip(bufs.par_iter_mut())
+                .map(|(els, buf)| {
+                    trace_block_within(st, &s, tx, els.clone(), window, |d| {
+                        let e = d.element as usize;
+                        let rec = &mut buf[e * n_buf * n_samples..(e + 1) * n_buf * n_samples];
                         if n_buf == 1 {
-                            let r = &mut buf[rec..rec + n_samples];
-                            crate::deposit::splat(r, t0, fs, d.time, d.amplitude);
+                            crate::deposit::splat(rec, t0, fs, d.time, d.amplitude);
                         } else {
-                            for (b, c) in crate::downshift::basis(d.shift, nodes) {
-                                let r = &mut buf[b * rec_len + rec..b * rec_len + rec + n_samples];
-                                crate::deposit::splat(r, t0, fs, d.time, d.amplitude * c);
-                            }
+                            let w = crate::downshift::basis(d.shift, nodes)
+                                .map(|(b, c)| (b, d.amplitude * c));
+                            crate::deposit::splat_interleaved(rec, n_buf, t0, fs, d.time, &w);
                         }
-                    });
-                    (buf, cnt)
+                    })
                 })
                 .collect();
             // Fixed-order reduction: block 0, 1, 2, …
-            for (buf, cnt) in parts {
+            for (buf, cnt) in bufs.iter_mut().zip(counts) {
                 counters.rays += cnt.rays;
                 counters.deposits += cnt.deposits;
-                for (b, part) in buf.chunks(rec_len).enumerate() {
-                    let out =
-                        &mut impulses[b * total + tx * rec_len..b * total + (tx + 1) * rec_len];
-                    for (o, v) in out.iter_mut().zip(part) {
-                        *o += *v;
-                    }
+                let out = &mut impulses[tx * n_buf * rec_len..(tx + 1) * n_buf * rec_len];
+                for (o, v) in out.iter_mut().zip(buf.iter()) {
+                    *o += *v;
                 }
+                buf.fill(T::zero());
             }
         }
+        drop(bufs);
         let Some(taps) = taps else {
             return (impulses, counters);
         };
         let mut out = vec![T::zero(); total];
+        let per_record = n_buf * n_samples;
         out.par_chunks_mut(n_samples)
-            .enumerate()
-            .for_each(|(r, y)| {
-                for (b, t) in taps.iter().enumerate() {
-                    let x = &impulses[b * total + r * n_samples..b * total + (r + 1) * n_samples];
-                    crate::deposit::convolve_add(x, t, y);
+            .zip(impulses.par_chunks(per_record))
+            .for_each(|(y, x)| {
+                if n_buf == 1 {
+                    crate::deposit::convolve(x, &taps[0], y);
+                } else {
+                    crate::deposit::convolve_interleaved_add(x, n_buf, &taps, y);
                 }
             });
         (out, counters)
