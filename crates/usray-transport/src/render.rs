@@ -5,7 +5,10 @@
 //! Transmits are processed one after another; the blocks of a transmit run in
 //! parallel (rayon, any order, any number of threads), each **splatting its
 //! deposits on the fly** into its own buffer of the transmit's records (paths in
-//! order: element, then ray), and the block buffers are summed in block order.
+//! order: element, then ray), and the block buffers are summed in block order
+//! (then cleared for the next transmit). With attenuation a deposit goes to
+//! the four records of its down-shift weights ([`crate::downshift`]), kept
+//! side by side per sample so that its splats share cache lines.
 //! Random numbers are keyed by the path ([`crate::rng`]), never by thread. So 1
 //! thread and many give **bit-identical** channel data, and memory is
 //! `O(channel data)`: at most `⌈N_e/ELEMENT_BLOCK⌉` transmit-sized buffers live
