@@ -53,7 +53,10 @@ pub const NODE_SPACING: f64 = 0.5;
 ///
 /// The bound: a deposit inside the records has travelled at most
 /// `L = c_max·(t_end + max|delay|)` (the transmit delays are at least
-/// `−max|x_e sin θ|/c`), so `β ≤ α_max·L` and `s = βσ_f ≤ α_max·L·σ_f`.
+/// `−max|x_e sin θ|/c`), so `β ≤ α_max·L` and `s = βσ_f ≤ α_max·L·σ_f`. It is
+/// capped at [`max_shift`], where the model stops being valid; larger shifts
+/// are placed at the cap ([`basis`]), so that an extreme attenuation cannot
+/// ask for an unbounded number of records.
 ///
 /// ```
 /// # let text = include_str!("../../../scenes/cylinder.toml");
@@ -63,6 +66,9 @@ pub const NODE_SPACING: f64 = 0.5;
 /// assert_eq!(node_count(&scene, true), 2);
 /// scene.set("medium.attenuation_db_cm_mhz", 1.0).unwrap();
 /// assert!(node_count(&scene, false) >= 2);
+/// // 100 dB/(cm·MHz): capped at a shift of f_c/2 (4 σ_f for 3 cycles).
+/// scene.set("medium.attenuation_db_cm_mhz", 100.0).unwrap();
+/// assert_eq!(node_count(&scene, false), 10);
 /// ```
 pub fn node_count(scene: &Scene, differentiated: bool) -> usize {
     let media = std::iter::once((
@@ -92,10 +98,30 @@ pub fn node_count(scene: &Scene, differentiated: bool) -> usize {
             scene.probe.center_frequency_hz,
             scene.probe.cycles,
         );
+    let s_max = s_max.min(max_shift(
+        scene.probe.center_frequency_hz,
+        scene.probe.cycles,
+    ));
     if !s_max.is_finite() {
         return 2;
     }
     ((s_max / NODE_SPACING).floor() as usize + 2).max(2)
+}
+
+/// The largest shift the renderer places, in `σ_f`: the carrier down to
+/// `f_c/2`, i.e. `s = f_c/(2σ_f)` (4.0 for 3 cycles). Beyond it the neglected
+/// negative-frequency half of the spectrum matters and the closed form no
+/// longer holds; for 3 cycles an echo shifted that far is also attenuated by
+/// `e^{−βf_c + s²/2}` = `e^{−24}` at least. A deposit beyond it gets the
+/// shift and the amplitude factor `e^{s²/2}` of the cap
+/// (`Deposit::shift`), so the factor cannot overflow.
+///
+/// ```
+/// use usray_transport::downshift::max_shift;
+/// assert!((max_shift(5e6, 3.0) - 4.002).abs() < 1e-3);
+/// ```
+pub fn max_shift(fc: f64, cycles: f64) -> f64 {
+    fc / (2.0 * usray_signal::pulse::pulse_bandwidth_hz(fc, cycles))
 }
 
 /// The taps of the `2·n_nodes` records: `[V_0, D_0, V_1, D_1, …]`, each

@@ -279,6 +279,8 @@ struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     norm: T,
     /// `σ_f` of the pulse spectrum, Hz (`usray_signal::pulse::pulse_bandwidth_hz`).
     sigma_f: T,
+    /// The largest down-shift placed, in `σ_f` (`crate::downshift::max_shift`).
+    max_shift: f64,
     /// The elements' receive directivity.
     lobe: ReceiveLobe<T>,
     /// Deposits from this time on are dropped by the caller (`None`: keep all).
@@ -305,7 +307,9 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     fn deposit(&mut self, e: usize, a: T, beta: T, tau: T) {
         let st = self.st;
         let g = depth_gain(st.depth_gain_db_per_cm, st.imaging_sound_speed, tau);
-        let shift = -(beta * self.sigma_f);
+        // Beyond the model's largest shift (`downshift::max_shift`) the echo is
+        // placed at it, and its factor is taken there (bounded by e^{s²/2}).
+        let shift = (-(beta * self.sigma_f)).max(T::from_f64(-self.max_shift));
         let mut amplitude = a * g * self.norm;
         if shift.value() != 0.0 {
             // At x = 0 the factor is 1 with zero derivative: skipped.
@@ -638,6 +642,7 @@ fn trace<T: Real>(
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
         sigma_f: usray_signal::pulse::pulse_bandwidth_hz(st.center_frequency, st.cycles),
+        max_shift: crate::downshift::max_shift(st.center_frequency.value(), st.cycles.value()),
         lobe: ReceiveLobe::new(st.main_lobe, st.cutoff),
         horizon,
         counters: TraceCounters::default(),
