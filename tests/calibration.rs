@@ -4,7 +4,8 @@
 //! physics as `scenes/cylinder.toml`.
 
 use usray::optim::{
-    fd_sweep, fit, log_steps, FdChannels, FitOptions, Objective, ParamSpec, TransportGradient,
+    fd_sweep, fit, log_steps, FdChannels, FitOptions, FitResult, Objective, ParamSpec,
+    TransportGradient,
 };
 use usray::transport::{RenderOptions, Scene};
 
@@ -159,6 +160,43 @@ fn transmit_micro_batches_sum_to_the_full_gradient() {
     assert!(obj.value_and_gradient(&at).is_err());
 }
 
+/// Experiment 2's fit: the cylinder's radius, impedance and roughness start at
+/// +10%, `impedance_factor` × and ×2 their values in `truth` and are fitted to
+/// `truth`'s B-mode for `iters` iterations. Returns the fit and the true values.
+fn experiment2_fit(truth: &Scene, impedance_factor: f64, iters: usize) -> (FitResult, Vec<f64>) {
+    let o = opts(RAYS);
+    let reference = reference_of(truth, &o);
+    let paths = [
+        "objects.cylinder.radius_m",
+        "materials.target.impedance_mrayl",
+        "materials.target.roughness",
+    ];
+    let true_v: Vec<f64> = paths.iter().map(|p| truth.get(p).unwrap()).collect();
+    let start_v: Vec<f64> = true_v
+        .iter()
+        .zip([1.1, impedance_factor, 2.0])
+        .map(|(v, f)| v * f)
+        .collect();
+    let mut start = truth.clone();
+    let mut specs = Vec::new();
+    for (p, v) in paths.iter().zip(&start_v) {
+        start.set(p, *v).unwrap();
+        specs.push(ParamSpec::parse(p, *v).unwrap());
+    }
+    let mut obj = Objective::new(start, reference, specs, o).unwrap();
+    let r = fit(
+        &mut obj,
+        &start_v,
+        &FitOptions {
+            iters,
+            ..Default::default()
+        },
+        |_| {},
+    )
+    .unwrap();
+    (r, true_v)
+}
+
 /// Experiment 2 at CI size: from radius +10%, impedance −25%, roughness ×2,
 /// recover radius within 1%, impedance within 5%, roughness within 15% in at most
 /// 150 iterations (100 here), the loss falling by at least 100×. Measured (dev
@@ -177,36 +215,7 @@ fn transmit_micro_batches_sum_to_the_full_gradient() {
 #[test]
 fn experiment2_recovers_cylinder_from_simulated_reference() {
     let truth = small_scene();
-    let o = opts(RAYS);
-    let reference = reference_of(&truth, &o);
-    let paths = [
-        "objects.cylinder.radius_m",
-        "materials.target.impedance_mrayl",
-        "materials.target.roughness",
-    ];
-    let true_v: Vec<f64> = paths.iter().map(|p| truth.get(p).unwrap()).collect();
-    let start_v: Vec<f64> = true_v
-        .iter()
-        .zip([1.1, 0.75, 2.0])
-        .map(|(v, f)| v * f)
-        .collect();
-    let mut start = truth.clone();
-    let mut specs = Vec::new();
-    for (p, v) in paths.iter().zip(&start_v) {
-        start.set(p, *v).unwrap();
-        specs.push(ParamSpec::parse(p, *v).unwrap());
-    }
-    let mut obj = Objective::new(start, reference, specs, o).unwrap();
-    let r = fit(
-        &mut obj,
-        &start_v,
-        &FitOptions {
-            iters: 100,
-            ..Default::default()
-        },
-        |_| {},
-    )
-    .unwrap();
+    let (r, true_v) = experiment2_fit(&truth, 0.75, 100);
     let l0 = r.history[0].loss;
     let errs: Vec<f64> = r
         .final_params
@@ -351,42 +360,13 @@ fn paired_loss_removes_the_roughness_bias_of_the_one_render_loss() {
 #[ignore = "diagnostic: 16 experiment-2 fits; minutes in the release profile"]
 fn experiment2_starts_and_samplers() {
     use usray::transport::scene::Sampler;
-    let paths = [
-        "objects.cylinder.radius_m",
-        "materials.target.impedance_mrayl",
-        "materials.target.roughness",
-    ];
     for factor in [0.75, 1.25] {
         for sampler in [Sampler::Independent, Sampler::Stratified] {
             for seed in 1..=4u64 {
                 let mut truth = small_scene();
                 truth.acquisition.sampler = sampler;
                 truth.acquisition.seed = seed;
-                let o = opts(RAYS);
-                let reference = reference_of(&truth, &o);
-                let true_v: Vec<f64> = paths.iter().map(|p| truth.get(p).unwrap()).collect();
-                let start_v: Vec<f64> = true_v
-                    .iter()
-                    .zip([1.1, factor, 2.0])
-                    .map(|(v, f)| v * f)
-                    .collect();
-                let mut start = truth.clone();
-                let mut specs = Vec::new();
-                for (p, v) in paths.iter().zip(&start_v) {
-                    start.set(p, *v).unwrap();
-                    specs.push(ParamSpec::parse(p, *v).unwrap());
-                }
-                let mut obj = Objective::new(start, reference, specs, o).unwrap();
-                let r = fit(
-                    &mut obj,
-                    &start_v,
-                    &FitOptions {
-                        iters: 150,
-                        ..Default::default()
-                    },
-                    |_| {},
-                )
-                .unwrap();
+                let (r, true_v) = experiment2_fit(&truth, factor, 150);
                 let err = |i: usize| (r.final_params[i] - true_v[i]) / true_v[i];
                 // Experiment 2's parameter tolerances (its loss ×100 is printed).
                 let recovered = err(0).abs() < 0.01 && err(1).abs() < 0.05 && err(2).abs() < 0.15;

@@ -15,23 +15,7 @@ use usray_ad::Real;
 /// splatting. Deposits outside the record are dropped.
 #[inline]
 pub fn splat<T: Real>(record: &mut [T], t0: f64, fs: f64, tau: T, a: T) {
-    let s = (tau - T::from_f64(t0)) * T::from_f64(fs);
-    let sv = s.value();
-    if !sv.is_finite() || sv <= -1.0 {
-        return;
-    }
-    let i = sv.floor();
-    let frac = s - T::from_f64(i);
-    let n = record.len() as f64;
-    if i >= n {
-        return;
-    }
-    if i >= 0.0 {
-        record[i as usize] += a * (T::one() - frac);
-    }
-    if i + 1.0 < n {
-        record[(i + 1.0) as usize] += a * frac;
-    }
+    splat_interleaved(record, 1, t0, fs, tau, &[(0, a)]);
 }
 
 /// [`splat`] of one deposit into several interleaved records at once: `records`
