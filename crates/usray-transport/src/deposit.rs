@@ -60,16 +60,24 @@ pub fn splat_interleaved<T: Real>(
 /// `y += Σ_b x_b ⋆ taps_b` for `n_buf` records interleaved in `x` (layout of
 /// [`splat_interleaved`]), each with its own centred taps (all of one odd
 /// length): [`convolve`] of every record, added into `y`.
-pub fn convolve_interleaved_add<T: Real>(x: &[T], n_buf: usize, taps: &[Vec<f64>], y: &mut [T]) {
-    let k0 = (taps[0].len() / 2) as isize;
+pub fn convolve_interleaved_add<T: Real, V: AsRef<[f64]>>(
+    x: &[T],
+    n_buf: usize,
+    taps: &[V],
+    y: &mut [T],
+) {
+    let k0 = (taps[0].as_ref().len() / 2) as isize;
     let n = y.len() as isize;
+    // Empty samples are skipped in `f64` only: an AD type compares values, and
+    // a sample of value 0 can still carry a derivative (a down-shift slope
+    // record at zero attenuation, a splat at a fraction of exactly 0).
     let sparse = std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>();
     for (j, xs) in x.chunks_exact(n_buf).enumerate() {
         for (&xj, t) in xs.iter().zip(taps) {
             if sparse && xj == T::zero() {
                 continue;
             }
-            for (k, &tk) in t.iter().enumerate() {
+            for (k, &tk) in t.as_ref().iter().enumerate() {
                 let i = j as isize + (k as isize - k0);
                 if i >= 0 && i < n {
                     y[i as usize] += xj.scale(tk);
@@ -82,26 +90,10 @@ pub fn convolve_interleaved_add<T: Real>(x: &[T], n_buf: usize, taps: &[Vec<f64>
 /// `y = x ⋆ taps` with centred taps (odd length `2K+1`, tap `K` at `t = 0`):
 /// `y[n] = Σ_k taps[k]·x[n − (k − K)]`, zero outside the record.
 pub fn convolve<T: Real>(x: &[T], taps: &[f64], y: &mut [T]) {
-    let k0 = (taps.len() / 2) as isize;
-    let n = x.len() as isize;
     for v in y.iter_mut() {
         *v = T::zero();
     }
-    // Empty samples are skipped in `f64` only: an AD type compares values, and
-    // a sample of value 0 can still carry a derivative (a down-shift slope
-    // record at zero attenuation, a splat at a fraction of exactly 0).
-    let sparse = std::any::TypeId::of::<T>() == std::any::TypeId::of::<f64>();
-    for (j, &xj) in x.iter().enumerate() {
-        if sparse && xj == T::zero() {
-            continue;
-        }
-        for (k, &t) in taps.iter().enumerate() {
-            let i = j as isize + (k as isize - k0);
-            if i >= 0 && i < n {
-                y[i as usize] += xj.scale(t);
-            }
-        }
-    }
+    convolve_interleaved_add(x, 1, &[taps], y);
 }
 
 #[cfg(test)]
