@@ -23,13 +23,22 @@ const DB_TO_NEPER_AMPLITUDE: f64 = core::f64::consts::LN_10 / 20.0;
 /// `10^(−α·(f_c/1e6)·(100 d)/20)`.
 #[inline]
 pub fn attenuation<T: Real>(alpha_db_cm_mhz: T, fc: T, d: T) -> T {
-    let x = -(alpha_db_cm_mhz * fc * d).scale(1e-6 * 100.0 * DB_TO_NEPER_AMPLITUDE);
+    attenuation_and_exponent(alpha_db_cm_mhz, fc, d).0
+}
+
+/// [`attenuation`] and [`attenuation_exponent`] of one segment together: the
+/// factor `e^{−β f_c}` and `β`, the exponent computed once (the tracer
+/// carries both along a path).
+#[inline]
+pub fn attenuation_and_exponent<T: Real>(alpha_db_cm_mhz: T, fc: T, d: T) -> (T, T) {
+    let beta = attenuation_exponent(alpha_db_cm_mhz, d);
+    let x = -(beta * fc);
     if alpha_db_cm_mhz.value() == 0.0 {
         // exp(x) at x = 0 to first order: value exactly 1, derivative x' (so a
         // zero attenuation still has its gradient).
-        return T::one() + x;
+        return (T::one() + x, beta);
     }
-    x.exp()
+    (x.exp(), beta)
 }
 
 /// The attenuation exponent per hertz of a segment, `β = α·d` in Np/Hz for

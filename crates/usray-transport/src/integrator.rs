@@ -65,7 +65,7 @@
 //! on the connection, as in the paper; total internal reflection blocks it) and
 //! the attenuation of every medium; time accumulates `length / c` per medium.
 
-use crate::effects::{attenuation, attenuation_exponent, depth_gain, ScattererField};
+use crate::effects::{attenuation_and_exponent, depth_gain, ScattererField};
 use crate::fresnel::fresnel;
 use crate::ggx::{Interface, SMOOTH_ALPHA};
 use crate::probe::{
@@ -277,8 +277,6 @@ struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     st: &'a SceneT<T>,
     settings: &'a TraceSettings,
     norm: T,
-    /// `σ_f` of the pulse spectrum, Hz (`usray_signal::pulse::pulse_bandwidth_hz`).
-    sigma_f: T,
     /// The largest down-shift placed, in `σ_f` (`crate::downshift::max_shift`).
     max_shift: f64,
     /// The elements' receive directivity.
@@ -309,7 +307,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         let g = depth_gain(st.depth_gain_db_per_cm, st.imaging_sound_speed, tau);
         // Beyond the model's largest shift (`downshift::max_shift`) the echo is
         // placed at it, and its factor is taken there (bounded by e^{s²/2}).
-        let shift = (-(beta * self.sigma_f)).max(T::from_f64(-self.max_shift));
+        let shift = (-(beta * st.pulse_bandwidth)).max(T::from_f64(-self.max_shift));
         let mut amplitude = a * g * self.norm;
         if shift.value() != 0.0 {
             // At x = 0 the factor is 1 with zero derivative: skipped.
@@ -413,8 +411,13 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             let hit = self.intersect(&Ray::new(origin, wo), remaining.value() - T_MIN);
             let Some(hit) = hit else {
                 time += remaining / medium.sound_speed;
-                amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, remaining);
-                beta += attenuation_exponent(medium.attenuation_db_cm_mhz, remaining);
+                let (k, b) = attenuation_and_exponent(
+                    medium.attenuation_db_cm_mhz,
+                    st.center_frequency,
+                    remaining,
+                );
+                amp *= k;
+                beta += b;
                 let solid = st.element_width * st.elevation * cos_e / (r * r);
                 // Unobstructed: the continuation could have hit the element too.
                 let mis = if crossing == 0 && p_bsdf.value() > 0.0 {
@@ -427,8 +430,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 return;
             };
             time += hit.t / medium.sound_speed;
-            amp *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
-            beta += attenuation_exponent(medium.attenuation_db_cm_mhz, hit.t);
+            let (k, b) =
+                attenuation_and_exponent(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
+            amp *= k;
+            beta += b;
             remaining -= hit.t;
             let entering = hit.entering(&wo);
             let other = if entering {
@@ -493,12 +498,12 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             // Time at the scatterer: along the ray to its projection, then across.
             let along = (q - origin).dot(dir);
             let t_q = tau + along / medium.sound_speed;
-            let a_q = w * attenuation(
+            let (k_q, b_q) = attenuation_and_exponent(
                 medium.attenuation_db_cm_mhz,
                 self.st.center_frequency,
                 along,
             );
-            let beta_q = beta + attenuation_exponent(medium.attenuation_db_cm_mhz, along);
+            let (a_q, beta_q) = (w * k_q, beta + b_q);
             let f = (medium.scatterer_strength * density_weight)
                 .scale(g / (4.0 * core::f64::consts::PI));
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
@@ -641,7 +646,6 @@ fn trace<T: Real>(
         st,
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
-        sigma_f: usray_signal::pulse::pulse_bandwidth_hz(st.center_frequency, st.cycles),
         max_shift: crate::downshift::max_shift(st.center_frequency.value(), st.cycles.value()),
         lobe: ReceiveLobe::new(st.main_lobe, st.cutoff),
         horizon,
@@ -782,12 +786,12 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     };
                     let fd = self.lobe.eval(-dir.z);
                     let tau = time + t_array / medium.sound_speed;
-                    let a = w
-                        * fd
-                        * mis
-                        * attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, t_array);
-                    let beta = beta + attenuation_exponent(medium.attenuation_db_cm_mhz, t_array);
-                    self.deposit(e, a, beta, tau);
+                    let (k, b) = attenuation_and_exponent(
+                        medium.attenuation_db_cm_mhz,
+                        st.center_frequency,
+                        t_array,
+                    );
+                    self.deposit(e, w * fd * mis * k, beta + b, tau);
                 }
             }
             return;
@@ -795,8 +799,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
 
         // Step 4: advance to the interface.
         time += hit.t / medium.sound_speed;
-        w *= attenuation(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
-        beta += attenuation_exponent(medium.attenuation_db_cm_mhz, hit.t);
+        let (k, b) =
+            attenuation_and_exponent(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
+        w *= k;
+        beta += b;
         if bounce > settings.max_bounces {
             return;
         }

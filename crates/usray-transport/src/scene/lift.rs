@@ -57,6 +57,10 @@ pub struct SceneT<T> {
     pub center_frequency: T,
     /// Pulse cycles.
     pub cycles: T,
+    /// `σ_f` of the pulse spectrum, Hz, from `center_frequency` and `cycles`
+    /// (`usray_signal::pulse::pulse_bandwidth_hz`; the down-shift's scale,
+    /// [`crate::downshift`]).
+    pub pulse_bandwidth: T,
     /// Receive main lobe, radians.
     pub main_lobe: T,
     /// Receive cutoff, radians.
@@ -201,6 +205,7 @@ impl Scene {
                 material: material(&format!("materials.{}", o.material), true),
             });
         }
+        let (center_frequency, cycles) = (get("probe.center_frequency_hz"), get("probe.cycles"));
         Ok(SceneT {
             medium: material("medium", false),
             objects,
@@ -209,8 +214,9 @@ impl Scene {
             pitch: get("probe.pitch_m"),
             element_width: get("probe.element_width_m"),
             elevation: get("probe.elevation_m"),
-            center_frequency: get("probe.center_frequency_hz"),
-            cycles: get("probe.cycles"),
+            center_frequency,
+            cycles,
+            pulse_bandwidth: usray_signal::pulse::pulse_bandwidth_hz(center_frequency, cycles),
             main_lobe: get("probe.main_lobe_deg") * deg,
             cutoff: get("probe.cutoff_deg") * deg,
             angles: (0..self.acquisition.angles_deg.len())
