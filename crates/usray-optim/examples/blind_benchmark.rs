@@ -1,7 +1,7 @@
 //! The diagnosis's blind benchmark (issue 6, `docs/diagnosis.md`):
 //!
 //! ```text
-//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2] [--sampler=stratified|independent]
+//! cargo run --release -p usray-optim --example blind_benchmark -- SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2] [--sampler=stratified|independent] [--depth-gain=LO,HI] [--depth-gain-both-signs]
 //! ```
 //!
 //! Renders `DRAWS` hidden draws from the base scene `SCENE` (kinds cycle through
@@ -20,6 +20,10 @@
 //! `--params=P1,P2` names the base model's free parameters (default: the
 //! documented default set). `--sampler=NAME` sets the base scene's
 //! `acquisition.sampler` (so both the data and the model use it).
+//! `--depth-gain=LO,HI` draws the depth gains' magnitude from [LO, HI] dB/cm
+//! (default 3,6), and `--depth-gain-both-signs` draws their sign too (the
+//! default draws gains up with depth; `--depth-gain=1,2 --depth-gain-both-signs`
+//! gives the draws of sessions 2–10).
 //!
 //! For each rightly named effect it also prints how far each parameter of the
 //! named refit lies from the truth of the hidden scene, in units of its reported
@@ -50,9 +54,20 @@ fn main() {
     let free_params: Vec<String> = option_value::<String>(&options, "--params")
         .map(|p| p.split(',').map(str::to_string).collect())
         .unwrap_or_default();
+    // `--depth-gain=LO,HI`: range of the depth-gain draws' magnitude, dB/cm.
+    let depth_gain = option_value::<String>(&options, "--depth-gain").map(|v| {
+        let r: Vec<f64> = v.split(',').filter_map(|x| x.parse().ok()).collect();
+        match r[..] {
+            [lo, hi] if lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi => (lo, hi),
+            _ => {
+                eprintln!("--depth-gain takes LO,HI with 0 <= LO <= HI, found `{v}`");
+                std::process::exit(2)
+            }
+        }
+    });
     if args.len() < 4 {
         eprintln!(
-            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2] [--sampler=stratified|independent]"
+            "usage: blind_benchmark SCENE DRAWS RAYS ITERS [OUT.json [SEED [KIND,...]]] [--paired] [--data-rays=N] [--noise-db=X] [--held-out-frame] [--params=P1,P2] [--sampler=stratified|independent] [--depth-gain=LO,HI] [--depth-gain-both-signs]"
         );
         std::process::exit(2);
     }
@@ -85,6 +100,8 @@ fn main() {
             ..Default::default()
         },
         noise_db: noise_db.unwrap_or(BlindOptions::default().noise_db),
+        depth_gain_db_per_cm: depth_gain.unwrap_or(BlindOptions::default().depth_gain_db_per_cm),
+        depth_gain_both_signs: flag("--depth-gain-both-signs"),
         ..Default::default()
     };
     if args.len() > 5 {

@@ -12,7 +12,7 @@
 //! | `attenuation` | the medium's and every material's `attenuation_db_cm_mhz` | [0.5, 1.5] dB/(cm·MHz) |
 //! | `volume_scattering` | first object material's scatterers, density [`crate::SCATTERER_DENSITY_PER_MM3`] | strength [0.17, 0.51] |
 //! | `sound_speed` | medium speed, beamformer kept | ±[3, 6] % |
-//! | `depth_gain` | `acquisition.depth_gain_db_per_cm` | ±[1, 2] dB/cm |
+//! | `depth_gain` | `acquisition.depth_gain_db_per_cm` | [3, 6] dB/cm ([`BlindOptions::depth_gain_db_per_cm`]) |
 //! | `pulse_length` | `probe.cycles` | [1.5, 2] × base |
 //! | `none` | nothing | — |
 //! | `outside` (not in the catalogue) | an unmodelled wire: a 0.3 mm rod of 7 MRayl clear of every object | its depth (m) |
@@ -21,6 +21,18 @@
 //! model before the event weight of [`usray_transport::effects::ScattererField`]
 //! was fixed: power per volume is now `ρ·strength²`, it was `ρ^{−1/3}·strength²`,
 //! a factor `5^{4/3}` at 5 per mm³.)
+//!
+//! The depth gains were drawn from ±[1, 2] dB/cm until session 11. Two things
+//! were wrong with that. The magnitudes lay below the benchmark frame's limit of
+//! detection (about 2.4 dB/cm, three spreads of the gain refits on no-effect
+//! draws; `docs/diagnosis.md`) and six times below the attenuation draws' own
+//! depth dependence (a tissue attenuation `α` darkens an echo at depth `d` by
+//! `2αf_c·d`: 5–15 dB/cm at 5 MHz for [0.5, 1.5] dB/(cm·MHz)). And a gain *down*
+//! with depth is, in a B-mode, what attenuation does, so that a negative draw
+//! had two right answers. A scanner's time-gain boosts deep echoes: [3, 6]
+//! dB/cm is a slope set for 0.3–0.6 dB/(cm·MHz) of tissue at 5 MHz that the
+//! medium does not have. `depth_gain_db_per_cm = (1.0, 2.0)` with
+//! `depth_gain_both_signs` gives the earlier draws back.
 //!
 //! Measurement noise: white Gaussian noise added to the channel data at
 //! [`BlindOptions::noise_db`] below the largest absolute sample, before
@@ -54,6 +66,12 @@ pub struct BlindOptions {
     pub noise_db: f64,
     /// Render options of the measured data (rays, threads); its seed is drawn.
     pub render: RenderOptions,
+    /// Range of the depth-gain draws' magnitude, dB/cm (default `(3.0, 6.0)`;
+    /// module docs).
+    pub depth_gain_db_per_cm: (f64, f64),
+    /// Whether a depth-gain draw's sign is drawn too (default `false`: gains
+    /// up with depth, as a scanner's time-gain; module docs).
+    pub depth_gain_both_signs: bool,
 }
 
 impl Default for BlindOptions {
@@ -62,6 +80,8 @@ impl Default for BlindOptions {
             seed: 2026,
             noise_db: 60.0,
             render: RenderOptions::default(),
+            depth_gain_db_per_cm: (3.0, 6.0),
+            depth_gain_both_signs: false,
         }
     }
 }
@@ -146,7 +166,13 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
             f
         }
         "depth_gain" => {
-            let g = sign * (1.0 + u);
+            let (lo, hi) = opts.depth_gain_db_per_cm;
+            let sign = if opts.depth_gain_both_signs {
+                sign
+            } else {
+                1.0
+            };
+            let g = sign * (lo + (hi - lo) * u);
             scene.acquisition.depth_gain_db_per_cm = g;
             g
         }
