@@ -111,8 +111,26 @@ fn splitmix(state: &mut u64) -> f64 {
 
 /// Draw `i` from `base` (see the module docs).
 ///
+/// ```
+/// use usray_optim::blind::{draw, BlindOptions};
+/// let base = usray_transport::Scene::load("../../scenes/cylinder.toml").unwrap();
+/// let opts = BlindOptions::default();
+/// // Draws 4, 12, 20, … are depth gains, up with depth, in [3, 6] dB/cm.
+/// for i in (4..80).step_by(8) {
+///     let d = draw(&base, i, &opts).unwrap();
+///     assert_eq!(d.kind, "depth_gain");
+///     assert!((3.0..=6.0).contains(&d.strength));
+///     assert_eq!(d.scene.acquisition.depth_gain_db_per_cm, d.strength);
+/// }
+/// // A range upside down is refused, naming the option.
+/// let bad = BlindOptions { depth_gain_db_per_cm: (6.0, 3.0), ..opts };
+/// let e = draw(&base, 4, &bad).unwrap_err().to_string();
+/// assert!(e.contains("depth_gain_db_per_cm"), "{e}");
+/// ```
+///
 /// # Errors
-/// A base scene without a cylinder or object material the kind needs.
+/// A base scene without a cylinder or object material the kind needs; a
+/// depth-gain range that is not `0 <= LO <= HI`.
 pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimError> {
     let mut st = opts.seed ^ (i as u64).wrapping_mul(0xd6e8_feb8_6659_fd93);
     let u = splitmix(&mut st);
@@ -167,6 +185,11 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
         }
         "depth_gain" => {
             let (lo, hi) = opts.depth_gain_db_per_cm;
+            if !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi) {
+                return Err(missing(&format!(
+                    "depth_gain_db_per_cm must be a range 0 <= LO <= HI of finite magnitudes, found ({lo}, {hi})"
+                )));
+            }
             let sign = if opts.depth_gain_both_signs {
                 sign
             } else {
