@@ -59,13 +59,22 @@ fn options(rays: usize, iters: usize) -> (BlindOptions, DiagnoseOptions) {
 /// Blind draw `i` of `kind` from the CI base scene (12 rays/element, 20
 /// iterations) and its diagnosis against the base scene.
 fn diagnose_draw(i: usize, kind: &str) -> (Scene, Draw, Diagnosis) {
+    diagnose_draw_with(i, kind, |d| d)
+}
+
+/// [`diagnose_draw`] with the diagnosis options changed by `change`.
+fn diagnose_draw_with(
+    i: usize,
+    kind: &str,
+    change: impl FnOnce(DiagnoseOptions) -> DiagnoseOptions,
+) -> (Scene, Draw, Diagnosis) {
     let _serial = one_at_a_time();
     let base = base();
     let (b, d) = options(12, 20);
     let drawn = draw(&base, i, &b).unwrap();
     assert_eq!(drawn.kind, kind);
     let measured = measured_image(&drawn, &b).unwrap();
-    let r = diagnose(&base, &measured, &d, |_| {}).unwrap();
+    let r = diagnose(&base, &measured, &change(d), |_| {}).unwrap();
     (base, drawn, r)
 }
 
@@ -503,14 +512,8 @@ fn blind_draws_of_four_more_kinds_name_their_effect() {
 /// wall, which a pixel loss against noisy data rewards (`docs/diagnosis.md`).
 #[test]
 fn blind_depth_gain_draw_is_named_with_the_paired_loss() {
-    let _serial = one_at_a_time();
-    let base = base();
-    let (b, d) = options(12, 20);
-    let d = DiagnoseOptions { paired: true, ..d };
-    let drawn = draw(&base, 4, &b).unwrap();
-    assert_eq!(drawn.kind, "depth_gain");
-    let measured = measured_image(&drawn, &b).unwrap();
-    let r = diagnose(&base, &measured, &d, |_| {}).unwrap();
+    let (_, drawn, r) =
+        diagnose_draw_with(4, "depth_gain", |d| DiagnoseOptions { paired: true, ..d });
     let gain = r.effects.iter().find(|e| e.effect == "depth_gain").unwrap();
     eprintln!(
         "gain {:+.2} dB/cm: verdict {} (shrink {:.2}); found {:?}, excess {:?}, gap explained {:?}",
