@@ -214,9 +214,8 @@ pub enum Command {
         /// its ℓ2 term): fits are no longer rewarded for a quieter simulation, and
         /// data within the noise come out `none` more often. Twice the renders.
         /// On the blind benchmark it names 97% of the hidden effects against the
-        /// default's 83% (a depth gain, which the default misses); not the
-        /// default because it mislocated the wall of the full-size paper case
-        /// (docs/diagnosis.md).
+        /// default's 83% (a depth gain, which the default misses), and finds the
+        /// full-size paper case's wall (docs/diagnosis.md).
         #[arg(long)]
         paired: bool,
         /// Measured data held out from the fit (other frames of the same
