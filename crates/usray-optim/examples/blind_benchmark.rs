@@ -54,13 +54,14 @@ fn main() {
     let free_params: Vec<String> = option_value::<String>(&options, "--params")
         .map(|p| p.split(',').map(str::to_string).collect())
         .unwrap_or_default();
-    // `--depth-gain=LO,HI`: range of the depth-gain draws' magnitude, dB/cm.
+    // `--depth-gain=LO,HI`: range of the depth-gain draws' magnitude, dB/cm
+    // (`usray_optim::blind::draw` refuses a range that is not 0 <= LO <= HI).
     let depth_gain = option_value::<String>(&options, "--depth-gain").map(|v| {
-        let r: Vec<f64> = v.split(',').filter_map(|x| x.parse().ok()).collect();
-        match r[..] {
-            [lo, hi] if lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi => (lo, hi),
+        let r: Result<Vec<f64>, _> = v.split(',').map(str::parse).collect();
+        match r.as_deref() {
+            Ok(&[lo, hi]) => (lo, hi),
             _ => {
-                eprintln!("--depth-gain takes LO,HI with 0 <= LO <= HI, found `{v}`");
+                eprintln!("--depth-gain takes two numbers LO,HI, found `{v}`");
                 std::process::exit(2)
             }
         }
