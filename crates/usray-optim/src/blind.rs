@@ -138,17 +138,17 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
     let seed = (splitmix(&mut st) * 1e9) as u64 + 1000;
     let kind = KINDS[i % KINDS.len()];
     let mut scene = base.clone();
-    let missing = |what: &str| OptimError::Diagnosis(format!("blind draw {kind}: {what}"));
+    let refused = |what: &str| OptimError::Diagnosis(format!("blind draw {kind}: {what}"));
     let strength = match kind {
         "wall_thickness" => {
             let o = scene
                 .objects
                 .iter_mut()
                 .find(|o| o.shape == ShapeKind::Cylinder)
-                .ok_or_else(|| missing("the base scene has no cylinder"))?;
+                .ok_or_else(|| refused("the base scene has no cylinder"))?;
             let r = o
                 .radius_m
-                .ok_or_else(|| missing("cylinder without radius"))?;
+                .ok_or_else(|| refused("cylinder without radius"))?;
             let t = (0.25 + 0.15 * u) * r;
             o.thickness_m = Some(t);
             t
@@ -167,7 +167,7 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
                 .objects
                 .first()
                 .map(|o| o.material.clone())
-                .ok_or_else(|| missing("the base scene has no object"))?;
+                .ok_or_else(|| refused("the base scene has no object"))?;
             let s = 0.17 + 0.34 * u;
             scene.set(
                 &format!("materials.{m}.scatterer_density_per_mm3"),
@@ -186,7 +186,7 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
         "depth_gain" => {
             let (lo, hi) = opts.depth_gain_db_per_cm;
             if !(lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi) {
-                return Err(missing(&format!(
+                return Err(refused(&format!(
                     "depth_gain_db_per_cm must be a range 0 <= LO <= HI of finite magnitudes, found ({lo}, {hi})"
                 )));
             }
@@ -205,7 +205,7 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
             f
         }
         "outside" => add_wire(&mut scene, &mut st)
-            .ok_or_else(|| missing("no room for a wire outside the first cylinder in the image"))?,
+            .ok_or_else(|| refused("no room for a wire outside the first cylinder in the image"))?,
         _ => 0.0,
     };
     scene.validate()?;

@@ -47,8 +47,9 @@ pub use adam::{Adam, AdamGroup};
 pub use diagnose::{
     catalogue, default_free_params, diagnose, held_out_seed, name_effect, score_candidate,
     Calibrated, Candidate, DiagnoseOptions, Diagnosis, EffectResult, NullRefit, Score, Timings,
-    Verdict, VerdictRule, DETECTION_LIMIT_SPREADS, EFFECT_LEARNING_RATE, HELD_OUT_SEED_STRIDE,
-    MAX_STEP_HALVINGS, MIN_CHECKED_REDUCTION, SCATTERER_DENSITY_PER_MM3, TIE_MARGIN,
+    Verdict, VerdictRule, DEPTH_GAIN_MAX_DB_PER_CM, DETECTION_LIMIT_SPREADS, EFFECT_LEARNING_RATE,
+    HELD_OUT_SEED_STRIDE, MAX_STEP_HALVINGS, MIN_CHECKED_REDUCTION, SCATTERER_DENSITY_PER_MM3,
+    TIE_MARGIN,
 };
 pub use fd::{fd_sweep, log_steps, FdPoint};
 pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};
