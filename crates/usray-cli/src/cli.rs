@@ -43,9 +43,9 @@ pub struct Sampling {
     /// other seeds: seed + 1, then 2³³ apart).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Override the scene's `acquisition.sampler`: `stratified` (the rays of each
-    /// element stratified for every decision: about 5× less Monte Carlo variance
-    /// at the same cost) or `independent`.
+    /// Override the scene's `acquisition.sampler`: `stratified` (the default: the
+    /// rays of each element stratified for every decision, about 5× less Monte
+    /// Carlo variance at the same cost) or `independent` (the paper's).
     #[arg(long, value_name = "NAME")]
     pub sampler: Option<Sampler>,
 }
@@ -229,6 +229,19 @@ pub enum Command {
         /// loss against the odd-numbered ones.
         #[arg(long)]
         held_out_frames: bool,
+        /// A time budget in seconds: within it the rays are raised until the
+        /// simulation's Monte Carlo noise is at most a quarter of the calibrated
+        /// gap; where the budget cannot buy that, the verdict is `inconclusive`
+        /// at once, with the rays and time a decision would need. The budget
+        /// bounds the rays chosen (and whether a further round runs); the run's
+        /// time is estimated, not enforced. Without it the rays are as given.
+        #[arg(long, value_name = "SECONDS")]
+        budget: Option<f64>,
+        /// Compound gaps: once an effect is named, switch it on at its refitted
+        /// value and diagnose again, up to this many rounds in all (a further
+        /// round runs only within the budget).
+        #[arg(long, value_name = "N", default_value_t = 2)]
+        rounds: usize,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

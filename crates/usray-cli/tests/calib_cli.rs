@@ -349,7 +349,7 @@ fn diagnose_writes_report_with_parameter_spreads() {
     let mirror = format!("its mirror `Z₁²/Z` = {:.3} MRayl", 1.54 * 1.54 / z);
     assert!(report.contains(&mirror), "report.md lacks `{mirror}`");
     // Without a named effect the report says what the data cannot rule out.
-    let named = !["none", "unexplained"].contains(&v["verdict"]["effect"].as_str().unwrap());
+    let named = usray_optim::names_an_effect(v["verdict"]["effect"].as_str().unwrap());
     assert_eq!(
         report.contains("What these data cannot rule out"),
         !named,
@@ -547,9 +547,9 @@ fn sampler_flag_equals_the_scene_key() {
     let keyed = dir.path().join("keyed.toml");
     let text = std::fs::read_to_string(&scene).unwrap().replace(
         "emission = \"plane_wave\"",
-        "emission = \"plane_wave\"\nsampler = \"stratified\"",
+        "emission = \"plane_wave\"\nsampler = \"independent\"",
     );
-    assert!(text.contains("sampler = \"stratified\""));
+    assert!(text.contains("sampler = \"independent\""));
     std::fs::write(&keyed, text).unwrap();
     let render = |scene: &str, out: &str, extra: &[&str]| -> Vec<u8> {
         let out = dir.path().join(out);
@@ -559,24 +559,32 @@ fn sampler_flag_equals_the_scene_key() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         std::fs::read(out.join("channels.npy")).unwrap()
     };
-    let flag = render(s, "flag", &["--sampler", "stratified"]);
+    let flag = render(s, "flag", &["--sampler", "independent"]);
     let key = render(keyed.to_str().unwrap(), "key", &[]);
     let default = render(s, "default", &[]);
-    assert_eq!(flag, key, "--sampler stratified differs from the scene key");
+    assert_eq!(
+        flag, key,
+        "--sampler independent differs from the scene key"
+    );
     let info: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(dir.path().join("flag/render.json")).unwrap(),
     )
     .unwrap();
-    assert_eq!(info["sampler"], "stratified");
-    assert_ne!(flag, default, "the stratified sampler changed nothing");
+    assert_eq!(info["sampler"], "independent");
+    let info: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("default/render.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(info["sampler"], "stratified", "the default sampler");
+    assert_ne!(flag, default, "the independent sampler changed nothing");
     let keyed_back = render(
         keyed.to_str().unwrap(),
         "back",
-        &["--sampler", "independent"],
+        &["--sampler", "stratified"],
     );
     assert_eq!(
         keyed_back, default,
-        "--sampler independent does not override the key"
+        "--sampler stratified does not override the key"
     );
     let out = dir.path().join("zero");
     let o = usray(&["render", s, "--rays", "0", "--out", out.to_str().unwrap()]);

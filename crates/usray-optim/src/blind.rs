@@ -317,7 +317,8 @@ pub fn verdict_is_right(kind: &str, verdict: &str) -> bool {
     }
 }
 
-/// Whether a verdict names an effect the data do not have (a false effect).
+/// Whether a verdict names an effect the data do not have (a false effect);
+/// `"none"`, `"unexplained"` and `"inconclusive"` name none.
 pub fn verdict_is_false_effect(kind: &str, verdict: &str) -> bool {
-    verdict != kind && verdict != "none" && verdict != "unexplained"
+    verdict != kind && crate::names_an_effect(verdict)
 }

@@ -37,7 +37,9 @@ mod fd;
 mod fit;
 mod loss;
 mod mirror;
+mod noise_budget;
 mod objective;
+mod parameter_candidates;
 mod params;
 mod reference;
 pub mod residual;
@@ -45,20 +47,26 @@ mod spread;
 
 pub use adam::{Adam, AdamGroup};
 pub use diagnose::{
-    catalogue, default_free_params, diagnose, held_out_seed, name_effect, score_candidate,
-    Calibrated, Candidate, DiagnoseOptions, Diagnosis, EffectResult, NullRefit, Score, Timings,
-    Verdict, VerdictRule, DEPTH_GAIN_MAX_DB_PER_CM, DETECTION_LIMIT_SPREADS, EFFECT_LEARNING_RATE,
-    HELD_OUT_SEED_STRIDE, MAX_STEP_HALVINGS, MIN_CHECKED_REDUCTION, SCATTERER_DENSITY_PER_MM3,
-    TIE_MARGIN,
+    calibration_spec, catalogue, default_free_params, diagnose, diagnose_compound, held_out_seed,
+    name_effect, names_an_effect, score_candidate, unnamed_verdict, Calibrated, Candidate,
+    DiagnoseOptions, Diagnosis, EffectResult, NullRefit, Score, Timings, Verdict, VerdictRule,
+    DEPTH_GAIN_MAX_DB_PER_CM, DETECTION_LIMIT_SPREADS, DIAGNOSIS_OVER_CALIBRATION,
+    EFFECT_LEARNING_RATE, HELD_OUT_SEED_STRIDE, IMPEDANCE_MARGIN, MAX_RAY_FACTOR, MAX_RAY_RAISES,
+    MAX_STEP_HALVINGS, MIN_CHECKED_REDUCTION, SCATTERER_DENSITY_PER_MM3, TIE_MARGIN,
 };
 pub use fd::{fd_sweep, log_steps, FdPoint};
 pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};
 pub use loss::L1L2;
 pub use mirror::impedance_mirror;
+pub use noise_budget::{
+    noise_exponent, rays_needed, simulation_noise_share, NoiseCheck, DEFAULT_NOISE_EXPONENT,
+    DEFAULT_NOISE_SHARE,
+};
 pub use objective::{
     grid_shape, DualReplay, Evaluation, FdChannels, Objective, PathReplay, TransportGradient,
     PAIRED_SEED_OFFSET,
 };
+pub use parameter_candidates::{parameter_candidates, RELATIVE_RANGE};
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
 pub use reference::{load_reference, load_reference_frames};
 pub use residual::{analyse_residual, RegionShare, ResidualOptions, ResidualReport};
@@ -85,4 +93,8 @@ pub enum OptimError {
     /// The residual diagnosis got unusable images or options ([`residual`]).
     #[error("diagnosis: {0}")]
     Diagnosis(String),
+    /// An optimiser's step left the scene's valid region in a way no projection
+    /// repairs: the fit's doing, not the scene file's.
+    #[error("fit step: {0}")]
+    Step(String),
 }

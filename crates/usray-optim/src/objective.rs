@@ -303,9 +303,20 @@ impl Objective {
     /// The scene with the parameters set to `physical`.
     pub fn scene_at(&self, physical: &[f64]) -> Result<Scene, OptimError> {
         let mut scene = self.scene.clone();
-        for (s, &v) in self.specs.iter().zip(physical) {
-            scene.set(&s.path, v)?;
-        }
+        let values: Vec<(&str, f64)> = self
+            .specs
+            .iter()
+            .zip(physical)
+            .map(|(s, &v)| (s.path.as_str(), v))
+            .collect();
+        // Coupled bounds (a wall thinner than its radius) are projected: a step
+        // of the optimiser that crosses one is not a fault of the user's scene.
+        scene.set_projected(&values).map_err(|e| {
+            OptimError::Step(format!(
+                "the fitted parameters {values:?} leave the scene's valid region ({e}); \
+                 narrow their ranges"
+            ))
+        })?;
         Ok(scene)
     }
 

@@ -109,6 +109,8 @@ max_depth_m = 0.03
 rays_per_element = 150000
 max_bounces = 6
 seed = 3
+emission = "cosine"
+sampler = "independent"
 [materials.layer]
 impedance_mrayl = 1.5
 sound_speed_m_s = {c2}

@@ -6,12 +6,14 @@ use common::{das_envelope, header};
 use usray_transport::{render, trace_all, RenderOptions, Scene};
 
 fn plane_text(extra_medium: &str, extra_acq: &str) -> String {
-    let h = header(16, 0.27e-3, "[0.0]", 300, 2)
-        .replace(
-            "impedance_mrayl = 1.5\n",
-            &format!("impedance_mrayl = 1.5\n{extra_medium}\n"),
-        )
-        .replace("seed = 1\n", &format!("seed = 1\n{extra_acq}\n"));
+    let mut h = header(16, 0.27e-3, "[0.0]", 300, 2).replace(
+        "impedance_mrayl = 1.5\n",
+        &format!("impedance_mrayl = 1.5\n{extra_medium}\n"),
+    );
+    if extra_acq.contains("emission") {
+        h = h.replace("emission = \"cosine\"\n", "");
+    }
+    let h = h.replace("seed = 1\n", &format!("seed = 1\n{extra_acq}\n"));
     format!(
         "{h}\n[materials.m]\nimpedance_mrayl = 4.5\nsound_speed_m_s = 1540.0\n\n\
          [[objects]]\nname = \"floor\"\nshape = \"plane\"\ncenter_m = [0.0, 0.0, 0.01]\nmaterial = \"m\"\n"
@@ -181,7 +183,7 @@ fn volume_scattering_makes_a_fixed_speckle_pattern() {
     // (measured 0.94 at 100 rays/element with all-receiver connections; with
     // one uniformly chosen receiver per event it was 0.46 at 200, 0.86 at 1000).
     let pw = text
-        .replace("seed = 1\n", "seed = 1\nemission = \"plane_wave\"\n")
+        .replace("emission = \"cosine\"", "emission = \"plane_wave\"")
         .replace("rays_per_element = 50", "rays_per_element = 100");
     let (_, a) = render_env(&pw, 1);
     let (_, b) = render_env(&pw, 2);
@@ -236,7 +238,7 @@ fn speckle_power_is_linear_in_density_across_grid_sizes() {
         // energy is the speckle's, not the Monte Carlo noise of the events (with
         // the cosine lobe the noise dominates: its power goes as μ·A², not ρ·A²).
         let text = speckle_text(density, 0.5)
-            .replace("seed = 1\n", "seed = 1\nemission = \"plane_wave\"\n")
+            .replace("emission = \"cosine\"", "emission = \"plane_wave\"")
             .replace("rays_per_element = 50", "rays_per_element = 400");
         let s = Scene::from_toml_str(&text, "<speckle>", ".").unwrap();
         let (d, _) = render(&s, &RenderOptions::default()).unwrap();

@@ -7,7 +7,7 @@ use crate::plots::residual_png;
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
-use usray_optim::{diagnose, DiagnoseOptions, Diagnosis};
+use usray_optim::{diagnose_compound, DiagnoseOptions, Diagnosis};
 use usray_signal::io::write_bmode_png;
 use usray_transport::Scene;
 
@@ -29,12 +29,23 @@ pub struct DiagnoseArgs {
     pub held_out_measured: Option<std::path::PathBuf>,
     /// Fit the even frames of multi-frame channel data, hold out the odd ones.
     pub held_out_frames: bool,
+    /// Time budget, seconds (`DiagnoseOptions::budget_s`).
+    pub budget_s: Option<f64>,
+    /// Rounds of the compound-gap diagnosis, at least 1.
+    pub rounds: usize,
 }
 
 /// Runs the diagnosis and writes `diagnosis.json`, `report.md` and the images.
 pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Common) -> Result<()> {
     let scene = Scene::load(scene_path)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
+    anyhow::ensure!(args.rounds >= 1, "--rounds must be at least 1");
+    if let Some(b) = args.budget_s {
+        anyhow::ensure!(
+            b.is_finite() && b > 0.0,
+            "--budget must be a positive number of seconds, found {b}"
+        );
+    }
     anyhow::ensure!(
         args.held_out_seeds >= 1,
         "--held-out-seeds must be at least 1"
@@ -62,20 +73,41 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         paired: args.paired,
         held_out_measured,
         render: args.sampling.render_options(common.threads)?,
+        budget_s: args.budget_s,
         ..Default::default()
     };
     let out = OutDir::create(&common.out)?;
     let bar = spinner(common.quiet, "diagnose");
     let t0 = std::time::Instant::now();
-    let d = diagnose(&scene, &measured_img, &opts, |msg| {
+    let rounds = diagnose_compound(&scene, &measured_img, &opts, args.rounds, |msg| {
         bar.set_message(msg.to_string())
     })?;
     bar.finish_and_clear();
     let wall = t0.elapsed().as_secs_f64();
+    let d = &rounds[0];
 
-    let mut json = serde_json::to_value(&d)?;
+    // The first round at the top level; every round's verdict in `rounds`.
+    let mut json = serde_json::to_value(d)?;
     json["residual_kinds"] = serde_json::to_value(&d.residual)?;
     json["wall_seconds"] = wall.into();
+    json["rounds"] = serde_json::Value::Array(
+        rounds
+            .iter()
+            .map(|r| {
+                let named = named_effect(r);
+                serde_json::json!({
+                    "verdict": r.verdict,
+                    "gap_explained": named.and_then(|e| e.gap_explained),
+                    "excess": named.and_then(|e| e.excess),
+                    "excess_std": named.and_then(|e| e.excess_std),
+                    "found": named.and_then(|e| e.params.get(&e.path)),
+                    "noise_check": r.noise_check,
+                    "loss_held_out": r.calibrated.loss_held_out,
+                    "seconds": r.timings.total_s,
+                })
+            })
+            .collect(),
+    );
     out.write_json("diagnosis.json", &json)?;
     write_bmode_png(out.path("measured.png"), nz, nx, &measured_img)?;
     write_bmode_png(out.path("calibrated.png"), nz, nx, &d.calibrated_image)?;
@@ -97,7 +129,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
     out.write_text(
         "report.md",
         &report(
-            &d,
+            &rounds,
             &scene,
             scene_path,
             measured,
@@ -106,21 +138,33 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
             scale_after,
         )?,
     )?;
+    let named: Vec<&str> = rounds.iter().map(|r| r.verdict.effect.as_str()).collect();
     eprintln!(
-        "usray diagnose: verdict {} (held-out shrink {:.2}); calibrated loss {:.4e}, noise level {:.4e}; {:.1} s; wrote diagnosis.json, report.md and images to {}",
+        "usray diagnose: verdict {} (held-out shrink {:.2}){}; simulation noise {:.0}% of the gap at {} rays; {:.1} s; wrote diagnosis.json, report.md and images to {}",
         d.verdict.effect,
         d.verdict.shrink,
-        d.calibrated.loss,
-        d.noise_loss,
+        if rounds.len() > 1 {
+            format!(", then {}", named[1..].join(", then "))
+        } else {
+            String::new()
+        },
+        100.0 * d.noise_check.share,
+        d.noise_check.rays,
         wall,
         common.out.display()
     );
     Ok(())
 }
 
+/// The refitted effect a diagnosis's verdict names, if any.
+fn named_effect(d: &Diagnosis) -> Option<&usray_optim::EffectResult> {
+    let path = d.verdict.path.as_ref()?;
+    d.effects.iter().find(|e| &e.path == path)
+}
+
 /// The story of a diagnosis, with its figures.
 fn report(
-    d: &Diagnosis,
+    rounds: &[Diagnosis],
     base: &Scene,
     scene: &Path,
     measured: &Path,
@@ -128,6 +172,7 @@ fn report(
     scale_before: f64,
     scale_after: f64,
 ) -> Result<String> {
+    let d = &rounds[0];
     let mut r = String::new();
     writeln!(
         r,
@@ -136,9 +181,17 @@ fn report(
         measured.display()
     )?;
     writeln!(r, "## Verdict: **{}**\n", d.verdict.effect)?;
+    let nc = &d.noise_check;
     match d.verdict.effect.as_str() {
-        "none" => writeln!(r, "No candidate effect shrinks the held-out loss by {:.0}% of it more than refitting the base parameters alone does, and the calibrated model's held-out loss ({:.4e}) is within {:.1}× the Monte Carlo noise of the simulation ({:.4e}, the loss between independent seeds of the calibrated model; both averaged over {} held-out seeds).\n", 100.0 * d.rule.min_excess, d.calibrated.loss_held_out, d.rule.noise_factor, d.noise_loss, d.held_out_seeds)?,
-        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds), and no candidate effect both shrinks the held-out loss by {:.0}% of it more than refitting the base parameters alone does and removes {:.0}% of the gap above the noise level.\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds, 100.0 * d.rule.min_excess, 100.0 * d.rule.min_gap_explained)?,
+        "none" => writeln!(r, "No candidate effect shrinks the held-out loss by {:.0}% of it more than refitting the base parameters alone does (by {:.0} standard errors), and the simulation's Monte Carlo noise was small enough to see one: {:.0}% of the calibrated gap at {} rays (at most {:.0}%). The limits of detection below say how weak an effect could still go unseen.\n", 100.0 * d.rule.min_excess, d.rule.min_excess_z, 100.0 * nc.share, nc.rays, 100.0 * nc.target)?,
+        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds): a candidate beats refitting the base parameters alone significantly, but none removes {:.0}% of the gap above the noise level. Something the catalogue does not hold is there; see where the residual lies (section 2).\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds, 100.0 * d.rule.min_gap_explained)?,
+        "inconclusive" => {
+            writeln!(r, "The simulation's own Monte Carlo noise is {:.0}% of the calibrated gap at {} rays per element (a decision needs at most {:.0}%), so a candidate could win or lose by fitting noise, and no effect was found that clears it.", 100.0 * nc.share, nc.rays, 100.0 * nc.target)?;
+            match (nc.rays_needed, nc.seconds_needed) {
+                (Some(rays), Some(s)) => writeln!(r, "A decision needs about **{rays} rays**, about {s:.0} s for the whole diagnosis on this machine: rerun with `--budget {:.0}` (or `--rays {rays}`).\n", s.ceil())?,
+                _ => writeln!(r, "The calibrated model's held-out loss is no larger than its own noise: no gap is visible at this noise level, and how many rays would show one cannot be told from it. Rerun with several times the rays.\n")?,
+            }
+        }
         e => {
             writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {:+.0}%.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, -100.0 * d.null_refit.shrink)?;
             if let Some(g) = d
@@ -152,7 +205,7 @@ fn report(
             writeln!(r)?
         }
     }
-    if ["none", "unexplained"].contains(&d.verdict.effect.as_str()) {
+    if ["none", "unexplained", "inconclusive"].contains(&d.verdict.effect.as_str()) {
         let limits: Vec<String> = d
             .effects
             .iter()
@@ -209,11 +262,13 @@ fn report(
     writeln!(r, "\n±: the standard deviation the fitted value would have under the simulation's Monte Carlo noise (a linearised fit repeated on {} independent noise realisations, `usray_optim::parameter_spread`). It counts noise only: where parameters trade against each other, or the loss is biased, the error can be many times larger (docs/diagnosis.md, \"How well each parameter is determined\").", d.spread_pairs)?;
     writeln!(
         r,
-        "\nLoss {:.4e} on the fit's seed, {:.4e} held out (mean over {} other seeds); Monte Carlo noise level {:.4e}.{}\n",
+        "\nLoss {:.4e} on the fit's seed, {:.4e} held out (mean over {} other seeds); Monte Carlo noise level {:.4e}, so the simulation's own noise is {:.0}% of the held-out loss at {} rays.{}\n",
         d.calibrated.loss,
         d.calibrated.loss_held_out,
         d.held_out_seeds,
         d.noise_loss,
+        100.0 * nc.share,
+        nc.rays,
         if d.paired {
             " Every loss is the paired loss (`--paired`: two renders with independent seeds, unbiased in the simulation's variance in its ℓ2 term)."
         } else {
@@ -283,8 +338,71 @@ fn report(
             found.join(", ")
         )?;
     }
+    let failed: Vec<String> = d
+        .effects
+        .iter()
+        .filter_map(|e| {
+            Some(format!(
+                "{} (`{}`): {}",
+                e.effect,
+                e.path,
+                e.failed.as_ref()?
+            ))
+        })
+        .collect();
+    if !failed.is_empty() {
+        writeln!(
+            r,
+            "\n**Not completed** (the diagnosis went on without them): {}.",
+            failed.join("; ")
+        )?;
+    }
+    if rounds.len() > 1 || usray_optim::names_an_effect(&d.verdict.effect) {
+        writeln!(r, "\n## Compound gap\n\nEach named effect is switched on at its refitted value, its parameter joins the calibration, and the diagnosis runs again ({} round(s) of at most the `--rounds` asked).\n", rounds.len())?;
+        writeln!(r, "| round | verdict | found | excess over the null refit | gap explained | what stays (held-out loss) | noise share at rays |\n|---|---|---|---|---|---|---|")?;
+        for (i, round) in rounds.iter().enumerate() {
+            let named = named_effect(round);
+            writeln!(
+                r,
+                "| {} | {} | {} | {} | {} | {:.4e} | {:.0}% at {} |",
+                i + 1,
+                round.verdict.effect,
+                named
+                    .and_then(|e| Some(format!(
+                        "`{}` = {}",
+                        e.path,
+                        short(*e.params.get(&e.path)?)
+                    )))
+                    .unwrap_or_else(|| "—".into()),
+                named
+                    .and_then(|e| Some(match e.excess_std {
+                        Some(se) => format!("{:+.3} ± {se:.3}", e.excess?),
+                        None => format!("{:+.3}", e.excess?),
+                    }))
+                    .unwrap_or_else(|| "—".into()),
+                or_dash(named.and_then(|e| e.gap_explained), |g| format!("{g:.2}")),
+                named
+                    .and_then(|e| e.loss_after)
+                    .unwrap_or(round.calibrated.loss_held_out),
+                100.0 * round.noise_check.share,
+                round.noise_check.rays,
+            )?;
+        }
+    }
     let t = &d.timings;
-    writeln!(r, "\n## Time\n\n{wall:.1} s in all: calibration {:.1} s, held-out evaluation {:.1} s, scoring every candidate {:.1} s, refits of the candidates {:.1} s, the null refit {:.1} s, parameter spreads {:.1} s.", t.calibration_s, t.held_out_s, t.scoring_s, t.refits_s, t.null_refit_s, t.spread_s)?;
+    writeln!(r, "\n## Time\n\n{wall:.1} s in all; the first round: calibration {:.1} s, held-out evaluation {:.1} s, scoring every candidate {:.1} s, refits of the candidates {:.1} s, the null refit {:.1} s, parameter spreads {:.1} s.", t.calibration_s, t.held_out_s, t.scoring_s, t.refits_s, t.null_refit_s, t.spread_s)?;
+    if nc.history.len() > 1 {
+        let steps: Vec<String> = nc
+            .history
+            .iter()
+            .map(|(rays, share)| format!("{rays} rays: {:.0}%", 100.0 * share))
+            .collect();
+        writeln!(
+            r,
+            "\nRays raised within the budget, with the simulation's noise share of the gap: {}.",
+            steps.join(" → ")
+        )?;
+    }
     Ok(r)
 }
 

@@ -72,6 +72,8 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             paired,
             held_out_measured,
             held_out_frames,
+            budget,
+            rounds,
             common,
         } => diagnose::run(
             scene,
@@ -85,6 +87,8 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
                 paired: *paired,
                 held_out_measured: held_out_measured.clone(),
                 held_out_frames: *held_out_frames,
+                budget_s: *budget,
+                rounds: *rounds,
             },
             common,
         ),

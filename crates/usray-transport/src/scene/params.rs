@@ -17,6 +17,10 @@
 
 use super::{Scene, SceneError};
 
+/// Thickest wall [`Scene::set_projected`] leaves a hollow cylinder, as a fraction
+/// of its radius (the scene requires `thickness_m < radius_m`).
+pub const MAX_WALL_FRACTION: f64 = 0.99;
+
 impl Scene {
     /// Visit every parameter (path, mutable value) in a fixed order.
     pub fn visit_params_mut(&mut self, f: &mut dyn FnMut(&str, &mut f64)) {
@@ -135,6 +139,51 @@ impl Scene {
         });
         if !found {
             return Err(unknown(self, path));
+        }
+        next.validate()?;
+        *self = next;
+        Ok(())
+    }
+}
+
+impl Scene {
+    /// Sets several parameters at once and projects the bounds that couple them
+    /// onto the valid region instead of refusing the step: a hollow cylinder's
+    /// `thickness_m` is kept at most [`MAX_WALL_FRACTION`] of its `radius_m`.
+    /// This is for optimisers, whose steps may cross a coupled bound that no
+    /// box of per-parameter ranges can express (a radius shrinking under its
+    /// wall); a user's file still gets [`Scene::set`]'s error. Other invalid
+    /// values are refused as by [`Scene::set`], leaving the scene unchanged.
+    ///
+    /// ```
+    /// # let text = include_str!("../../../../scenes/ring.toml");
+    /// let mut s = usray_transport::Scene::from_toml_str(text, "ring.toml", ".").unwrap();
+    /// let r = s.get("objects.tube.radius_m").unwrap();
+    /// assert!(s.set("objects.tube.thickness_m", 1.5 * r).is_err());
+    /// s.set_projected(&[("objects.tube.thickness_m", 1.5 * r)]).unwrap();
+    /// let t = s.get("objects.tube.thickness_m").unwrap();
+    /// assert_eq!(t, usray_transport::scene::params::MAX_WALL_FRACTION * r);
+    /// ```
+    pub fn set_projected(&mut self, values: &[(&str, f64)]) -> Result<(), SceneError> {
+        let mut next = self.clone();
+        for (path, value) in values {
+            let mut found = false;
+            next.visit_params_mut(&mut |p, v| {
+                if p == *path {
+                    *v = *value;
+                    found = true;
+                }
+            });
+            if !found {
+                return Err(unknown(self, path));
+            }
+        }
+        for o in next.objects.iter_mut() {
+            if let (Some(r), Some(t)) = (o.radius_m, o.thickness_m.as_mut()) {
+                if r > 0.0 && *t >= r {
+                    *t = MAX_WALL_FRACTION * r;
+                }
+            }
         }
         next.validate()?;
         *self = next;

@@ -30,6 +30,8 @@ max_depth_m = 0.03
 rays_per_element = {rays}
 max_bounces = {bounces}
 seed = 1
+emission = "cosine"
+sampler = "independent"
 "#
     )
 }

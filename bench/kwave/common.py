@@ -1,0 +1,123 @@
+"""Geometry, medium and source of usray's full-wave benchmark (tier b, bench/README.md).
+
+A copy of ../shared/tools/kwave/common.py with two ring geometries (GEOMS), per-case pulse
+lengths and every catalogue effect of `usray diagnose` as a case."""
+import numpy as np
+
+# ---- grid -------------------------------------------------------------------------
+DX = 0.075e-3                 # grid spacing [m]  (PPW = 1480/2.5e6/DX = 7.9)
+NZ_IN, NX_IN = 360, 320       # interior grid (axis0 = z depth, axis1 = x lateral)
+PML = 20                      # PML points per side, outside the interior (pml_inside=False)
+PML_ALPHA = 2.0
+J0 = 8                        # interior row holding the array (z = 0)
+DT = 12.5e-9                  # time step (fs_sim = 80 MHz; CFL = 1600*DT/DX = 0.267)
+NT = 4000                     # 50 us of simulated time
+C_REF = 1600.0                # k-space / PML reference speed, forced identical in every run
+z = (np.arange(NZ_IN) - J0) * DX                  # row centres
+x = (np.arange(NX_IN) - NX_IN / 2 + 0.5) * DX      # column centres (x=0 between two columns)
+
+# ---- probe ------------------------------------------------------------------------
+NEL, PITCH, WIDTH = 64, 0.3e-3, 0.27e-3
+XEL = (np.arange(NEL) - (NEL - 1) / 2) * PITCH
+F0, NCYC = 2.5e6, 3
+T_BURST = NCYC / F0
+SIGMA_T = T_BURST / 6          # k-Wave tone_burst Gaussian envelope: x in [-3,3] over the burst, sigma = 1
+NCYC_LONG = 5                  # the pulse_length cases' burst (sigma 5/3 as long)
+T_LEAD = 2.5e-6                # sim time at which the (x=0) wavefront centre leaves the array = our t=0
+N_LEAD = int(round(T_LEAD / DT))   # 200 (room for the 5-cycle burst's leading 4 sigma + max delay)
+C_TX = 1480.0                  # speed the "scanner" uses for its transmit delays (all cases)
+SRC_LEN = 400                  # source samples (5 us) -- covers lead + max delay + 4 sigma
+
+def element_weights():
+    """(NEL, NX_IN) area weights of each element over the cells of the array row."""
+    W = np.zeros((NEL, NX_IN))
+    lo_c, hi_c = x - DX / 2, x + DX / 2
+    for i, xc in enumerate(XEL):
+        lo, hi = xc - WIDTH / 2, xc + WIDTH / 2
+        W[i] = np.clip(np.minimum(hi, hi_c) - np.maximum(lo, lo_c), 0, None) / DX
+    return W
+
+def pulse(t, ncyc=NCYC):
+    """k-Wave tone_burst(fs, F0, ncyc) written analytically about its envelope centre (t = 0):
+    -sin(2 pi F0 t) * exp(-t^2 / (2 sigma^2)), sigma = ncyc / (6 F0), truncated at |t| = 4 sigma."""
+    sigma = ncyc / F0 / 6
+    s = -np.sin(2 * np.pi * F0 * t) * np.exp(-t ** 2 / (2 * sigma ** 2))
+    return np.where(np.abs(t) <= 4 * sigma, s, 0.0)
+
+# ---- target -----------------------------------------------------------------------
+# Two ring geometries (centre (x, z) and outer radius, m); both inside the grid above.
+GEOMS = {
+    "g1": dict(centre=(0.0, 16e-3), r_out=5e-3),        # 5 mm ring on axis at 16 mm
+    "g2": dict(centre=(2e-3, 13e-3), r_out=3.5e-3),     # 3.5 mm ring off axis at 13 mm
+}
+RING_C = GEOMS["g1"]["centre"]
+R_OUT = GEOMS["g1"]["r_out"]
+C_W, RHO_W = 1480.0, 1000.0
+C_T, RHO_T = 1600.0, 1100.0
+
+def ring_fraction(r_in, r_out, nsub=10, centre=None):
+    """Area fraction of each interior cell covered by the annulus r_in < r < r_out about `centre`."""
+    RING_C = centre if centre is not None else GEOMS["g1"]["centre"]
+    f = np.zeros((NZ_IN, NX_IN))
+    jz = np.where(np.abs(z - RING_C[1]) < r_out + 2 * DX)[0]
+    jx = np.where(np.abs(x - RING_C[0]) < r_out + 2 * DX)[0]
+    off = (np.arange(nsub) + 0.5) / nsub - 0.5
+    ZZ = z[jz][:, None, None, None] + off[None, None, :, None] * DX
+    XX = x[jx][None, :, None, None] + off[None, None, None, :] * DX
+    r = np.sqrt((XX - RING_C[0]) ** 2 + (ZZ - RING_C[1]) ** 2)
+    inside = (r > r_in) & (r < r_out)
+    f[np.ix_(jz, jx)] = inside.mean(axis=(2, 3))
+    return f
+
+def mix(f, c_bg, rho_bg, c_t=C_T, rho_t=RHO_T):
+    """Partial-volume mixing: density and compressibility averaged by area fraction."""
+    rho = (1 - f) * rho_bg + f * rho_t
+    kap = (1 - f) / (rho_bg * c_bg ** 2) + f / (rho_t * c_t ** 2)
+    return np.sqrt(1 / (rho * kap)), rho
+
+# Each case: geometry, wall thickness (None: no target), water speed, attenuation (dB/cm/MHz, in
+# water and wall), lumen speckle, pulse cycles; `ref` names the background run subtracted from it
+# (same water and pulse, no ring); `gain_db_cm` a depth gain applied in finalize.py (a scanner's
+# TGC acts on the received signal, not on the field).
+THIN = 2 * DX                  # the modelled wall: 0.15 mm
+CASES = {
+    "ref1480":  dict(wall=None, c_w=1480.0, alpha=0.0, speckle=False),
+    "ref1520":  dict(wall=None, c_w=1520.0, alpha=0.0, speckle=False),
+    "refatt":   dict(wall=None, c_w=1480.0, alpha=0.5, speckle=False),
+    "refpulse": dict(wall=None, c_w=1480.0, alpha=0.0, speckle=False, ncyc=NCYC_LONG),
+}
+for g in GEOMS:
+    CASES.update({
+        f"{g}_none":    dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
+        f"{g}_wall":    dict(geom=g, wall=0.9e-3, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
+        f"{g}_speed":   dict(geom=g, wall=THIN, c_w=1520.0, alpha=0.0, speckle=False, ref="ref1520"),
+        f"{g}_atten":   dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.5, speckle=False, ref="refatt"),
+        f"{g}_speckle": dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=True, ref="ref1480"),
+        f"{g}_pulse":   dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=False, ref="refpulse", ncyc=NCYC_LONG),
+        f"{g}_gain":    dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480",
+                             raw=f"{g}_none", gain_db_cm=3.0),
+    })
+ALPHA_POWER = 1.0              # y = 1 with alpha_mode = 'no_dispersion' (exactly dB/cm/MHz)
+SPECKLE_SEED, SPECKLE_FRAC, SPECKLE_STD, SPECKLE_CLIP = 21, 0.15, 0.02, 0.04
+
+def build_medium(case):
+    p = CASES[case]
+    c = np.full((NZ_IN, NX_IN), p["c_w"]); rho = np.full((NZ_IN, NX_IN), RHO_W)
+    info = {}
+    if p["wall"] is not None:
+        g = GEOMS[p["geom"]]
+        f = ring_fraction(g["r_out"] - p["wall"], g["r_out"], centre=g["centre"])
+        c, rho = mix(f, p["c_w"], RHO_W)
+        info["wall_cells_equiv"] = float(f.sum())
+        if p["speckle"]:
+            rng = np.random.default_rng(SPECKLE_SEED)
+            fin = ring_fraction(0.0, g["r_out"] - p["wall"], centre=g["centre"])   # lumen fraction
+            cand = (fin >= 1.0) & (f == 0)                          # cells wholly inside the lumen
+            u = rng.random((NZ_IN, NX_IN))
+            dc = np.clip(rng.normal(0, SPECKLE_STD, (NZ_IN, NX_IN)), -SPECKLE_CLIP, SPECKLE_CLIP)
+            drho = np.clip(rng.normal(0, SPECKLE_STD, (NZ_IN, NX_IN)), -SPECKLE_CLIP, SPECKLE_CLIP)
+            sel = cand & (u < SPECKLE_FRAC)
+            c = np.where(sel, c * (1 + dc), c); rho = np.where(sel, rho * (1 + drho), rho)
+            info.update(n_scatterer_cells=int(sel.sum()), n_lumen_cells=int(cand.sum()),
+                        dc_std=float(dc[sel].std()), drho_std=float(drho[sel].std()))
+    return c.astype(np.float32), rho.astype(np.float32), info

@@ -1,0 +1,183 @@
+//! Candidates of the form "this modelled value is wrong": every continuous scene
+//! parameter that the calibration does not fit and that a real acquisition can
+//! get wrong, scored like the structural catalogue ([`crate::catalogue`]).
+//!
+//! A structural candidate switches an effect on from its null (no wall → a
+//! wall); a parameter candidate moves a value the scene already has — a hollow
+//! cylinder's wall thickness, an object's sound speed, the probe's centre
+//! frequency or element width, an attenuation, scattering, depth gain or
+//! roughness already switched on — either way from the scene's value, which is
+//! its null.
+
+use crate::diagnose::{Candidate, EFFECT_LEARNING_RATE};
+use usray_transport::Scene;
+
+/// Relative half-width of the range of a sound speed or centre frequency
+/// candidate (±15%: beyond the spread of soft tissues' speeds, 1450–1640 m/s,
+/// about a nominal 1540 m/s; a probe's actual centre frequency is within
+/// ±15% of its nominal one for the arrays of PyMUST's `getparam`).
+pub const RELATIVE_RANGE: f64 = 0.15;
+
+/// The parameter candidates of `scene` whose paths are not in `calibrated`
+/// (module docs). Each has the scene's value as its null and as its first
+/// onset, so that switched on at the null it renders the scene bit for bit.
+///
+/// ```
+/// use usray_optim::parameter_candidates;
+/// let scene = usray_transport::Scene::load("../../scenes/ring.toml").unwrap();
+/// let c = parameter_candidates(&scene, &[]);
+/// let wall = c.iter().find(|c| c.effect == "wall_thickness").unwrap();
+/// assert_eq!(wall.path, "objects.tube.thickness_m");
+/// assert_eq!(wall.null, Some(0.001));
+/// assert!(wall.two_sided && wall.range.0 < 0.001 && wall.range.1 > 0.001);
+/// // A calibrated parameter is not a candidate.
+/// let c = parameter_candidates(&scene, &["objects.tube.thickness_m".to_string()]);
+/// assert!(c.iter().all(|c| c.path != "objects.tube.thickness_m"));
+/// ```
+pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let free = |path: &str| !calibrated.iter().any(|p| p == path);
+    let f_c = scene.probe.center_frequency_hz;
+    let lambda = scene.medium.sound_speed_m_s / f_c;
+    let two_sided = |effect: &str, path: String, v: f64, range: (f64, f64), extra: &[f64]| {
+        let mut onsets = vec![v];
+        onsets.extend(
+            extra
+                .iter()
+                .copied()
+                .filter(|x| *x > range.0 && *x < range.1),
+        );
+        Candidate {
+            effect: effect.into(),
+            path,
+            onsets,
+            range,
+            two_sided: true,
+            null: Some(v),
+            fixed: vec![],
+            learning_rate: EFFECT_LEARNING_RATE,
+        }
+    };
+    for o in &scene.objects {
+        let (Some(r), Some(t)) = (o.radius_m, o.thickness_m) else {
+            continue;
+        };
+        let path = format!("objects.{}.thickness_m", o.name);
+        let Some(m) = scene.materials.get(&o.material) else {
+            continue;
+        };
+        if !free(&path) {
+            continue;
+        }
+        // As the structural wall (`catalogue`): the loss's basin is about one
+        // echo width `Δt = c_wall·cycles/(2 f_c)` wide, so the onsets are the
+        // scene's wall and walls one echo width apart across the radius.
+        let dt = m.sound_speed_m_s * scene.probe.cycles / (2.0 * f_c);
+        let range = ((0.25 * lambda).min(0.5 * t), 0.95 * r);
+        let across: Vec<f64> = (0..)
+            .map(|k| (k as f64 + 0.5) * dt)
+            .take_while(|x| *x < range.1)
+            .filter(|x| (x - t).abs() > 0.5 * dt)
+            .collect();
+        let mut c = two_sided("wall_thickness", path, t, range, &across);
+        c.learning_rate = (0.25 * dt / (range.1 - range.0)).min(EFFECT_LEARNING_RATE);
+        out.push(c);
+    }
+    let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
+    materials.sort_unstable();
+    materials.dedup();
+    for name in materials {
+        let Some(m) = scene.materials.get(name) else {
+            continue;
+        };
+        let path = format!("materials.{name}.sound_speed_m_s");
+        if free(&path) {
+            let v = m.sound_speed_m_s;
+            out.push(two_sided(
+                "material_sound_speed",
+                path,
+                v,
+                ((1.0 - RELATIVE_RANGE) * v, (1.0 + RELATIVE_RANGE) * v),
+                &[0.95 * v, 1.05 * v],
+            ));
+        }
+        let on = |x: f64| x > 0.0;
+        let path = format!("materials.{name}.attenuation_db_cm_mhz");
+        if on(m.attenuation_db_cm_mhz) && free(&path) {
+            let v = m.attenuation_db_cm_mhz;
+            out.push(two_sided(
+                "attenuation",
+                path,
+                v,
+                (0.0, (2.0f64).max(2.0 * v)),
+                &[],
+            ));
+        }
+        let path = format!("materials.{name}.scatterer_strength");
+        if on(m.scatterer_strength) && on(m.scatterer_density_per_mm3) && free(&path) {
+            let v = m.scatterer_strength;
+            out.push(two_sided("volume_scattering", path, v, (0.0, 4.0 * v), &[]));
+        }
+        let path = format!("materials.{name}.roughness");
+        if on(m.roughness) && free(&path) {
+            let v = m.roughness;
+            out.push(two_sided("roughness", path, v, (0.0, 1.0), &[]));
+        }
+    }
+    let path = "medium.attenuation_db_cm_mhz";
+    let v = scene.medium.attenuation_db_cm_mhz;
+    if v > 0.0 && free(path) {
+        out.push(two_sided(
+            "attenuation",
+            path.into(),
+            v,
+            (0.0, (2.0f64).max(2.0 * v)),
+            &[],
+        ));
+    }
+    let c_img = scene.imaging.sound_speed_m_s;
+    let path = "medium.sound_speed_m_s";
+    let v = scene.medium.sound_speed_m_s;
+    if c_img.is_some_and(|c| c != v) && free(path) {
+        // The medium's speed already differs from the beamformer's: the
+        // structural candidate is off, this one asks whether the difference is
+        // the right one (the structural candidate's range and onsets).
+        out.push(two_sided(
+            "sound_speed",
+            path.into(),
+            v,
+            (0.93 * v, 1.07 * v),
+            &[0.975 * v, 1.025 * v],
+        ));
+    }
+    let path = "probe.center_frequency_hz";
+    if free(path) {
+        out.push(two_sided(
+            "center_frequency",
+            path.into(),
+            f_c,
+            ((1.0 - RELATIVE_RANGE) * f_c, (1.0 + RELATIVE_RANGE) * f_c),
+            &[],
+        ));
+    }
+    let path = "probe.element_width_m";
+    let w = scene.probe.element_width_m;
+    if scene.probe.n_elements > 1 && free(path) {
+        // Between a third of the pitch and the pitch (kerfless).
+        let pitch = scene.probe.pitch_m;
+        out.push(two_sided(
+            "element_width",
+            path.into(),
+            w,
+            ((pitch / 3.0).min(w), pitch.max(w)),
+            &[],
+        ));
+    }
+    let path = "acquisition.depth_gain_db_per_cm";
+    let g = scene.acquisition.depth_gain_db_per_cm;
+    if g != 0.0 && free(path) {
+        let span = crate::diagnose::DEPTH_GAIN_MAX_DB_PER_CM.max(2.0 * g.abs());
+        out.push(two_sided("depth_gain", path.into(), g, (-span, span), &[]));
+    }
+    out
+}
