@@ -264,8 +264,8 @@ fn zero_held_out_seeds_or_spread_pairs_are_refused() {
 /// lie nearer the truth (0.3) than the one-render loss's: the one-render
 /// calibration smooths the wall to quiet the simulation.
 ///
-/// With a budget too small to raise the rays, the diagnosis must stop after the
-/// calibration as `inconclusive` and say how many rays a decision would need.
+/// With a budget too small to raise the rays, the diagnosis must go on at the
+/// rays it has, end `inconclusive` and say how many rays a decision would need.
 #[test]
 fn no_effect_names_no_false_effect() {
     let (base, _, r) = diagnose_draw(6, "none");
@@ -304,11 +304,14 @@ fn no_effect_names_no_false_effect() {
         budget_s: Some(1.0),
         ..d
     });
-    assert_eq!(small.verdict.effect, "inconclusive");
-    assert!(
-        small.effects.is_empty(),
-        "scored after an inconclusive check"
+    // Too small a budget buys no rays: the diagnosis goes on at 12, and with
+    // its noise above the target it cannot say `none`.
+    assert_eq!(
+        small.noise_check.history.len(),
+        1,
+        "rays raised past the budget"
     );
+    assert_eq!(small.verdict.effect, "inconclusive");
     let needed = small
         .noise_check
         .rays_needed

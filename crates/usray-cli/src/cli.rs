@@ -231,10 +231,12 @@ pub enum Command {
         held_out_frames: bool,
         /// A time budget in seconds: within it the rays are raised until the
         /// simulation's Monte Carlo noise is at most a quarter of the calibrated
-        /// gap; where the budget cannot buy that, the verdict is `inconclusive`
-        /// at once, with the rays and time a decision would need. The budget
-        /// bounds the rays chosen (and whether a further round runs); the run's
-        /// time is estimated, not enforced. Without it the rays are as given.
+        /// gap; where the budget cannot buy that, the diagnosis goes on at the
+        /// rays it has and may still name an effect, but ends `inconclusive`
+        /// rather than `none`, with the rays and time a decision would need. The
+        /// budget bounds the rays chosen (and whether a further round runs),
+        /// not the run: its time is estimated from the calibration's. Without
+        /// it the rays are as given.
         #[arg(long, value_name = "SECONDS")]
         budget: Option<f64>,
         /// Compound gaps: once an effect is named, switch it on at its refitted

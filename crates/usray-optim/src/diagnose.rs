@@ -79,8 +79,10 @@
 //!   holds (`N` the noise level) is compared with
 //!   [`DiagnoseOptions::noise_share`]. With a budget
 //!   ([`DiagnoseOptions::budget_s`]) the rays are raised while the share is
-//!   larger and the budget allows, and a diagnosis that cannot get there stops
-//!   as `"inconclusive"`, saying what it would need.
+//!   larger and the budget allows; a diagnosis that cannot get there goes on
+//!   at the rays it has, may still name an effect that clears the held-out
+//!   test, and otherwise says `"inconclusive"` (never `"none"`) with the rays
+//!   and time it would need.
 //! - **Candidates**: the structural [`catalogue`] and the
 //!   [`crate::parameter_candidates`] ("this modelled value is wrong").
 //! - **Failures**: a candidate whose scoring or refit fails is recorded
@@ -700,8 +702,8 @@ pub struct DiagnoseOptions {
     pub render: RenderOptions,
     /// A time budget, seconds: within it the rays are raised until the
     /// simulation's noise is at most [`DiagnoseOptions::noise_share`] of the
-    /// calibrated gap, and where the budget cannot buy that the verdict is
-    /// `"inconclusive"` at once, with the rays and time a decision would take.
+    /// calibrated gap; where the budget cannot buy that, the diagnosis goes on
+    /// at the rays it has and cannot say `"none"` ([`unnamed_verdict`]).
     /// The budget bounds the rays chosen; the diagnosis's time is estimated
     /// from its calibration ([`DIAGNOSIS_OVER_CALIBRATION`]), not enforced.
     /// `None` (the default): the rays as given, and the same check reported.
@@ -1225,6 +1227,25 @@ struct Refit {
     spread_s: f64,
 }
 
+/// The Adam step of a candidate's parameter in its refit, as a fraction of its
+/// range: [`Candidate::learning_rate`] (the effect's strength may lie anywhere
+/// in its range and refits are short: 5% of the range per step, less for a
+/// narrow basin), but for an effect whose null is the bottom of its range a
+/// quarter of the start's distance from it, between a quarter of that and
+/// that. Otherwise a start near the null (a faint speckle scored best at 0.035
+/// of a 0–0.7 strength) is one step from the bound, where the clip map's
+/// derivative is zero (paper eq. clip_grad) and the effect, switched off,
+/// could never come back.
+fn refit_learning_rate(c: &Candidate, start: f64) -> f64 {
+    let width = c.range.1 - c.range.0;
+    match c.null {
+        Some(null) if !c.two_sided && null <= c.range.0 && width > 0.0 => {
+            (0.25 * (start - c.range.0) / width).clamp(0.25 * c.learning_rate, c.learning_rate)
+        }
+        _ => c.learning_rate,
+    }
+}
+
 /// Refits candidate `c` with the base `specs` from `start` (step 4).
 fn refit_candidate(
     c: &Candidate,
@@ -1255,9 +1276,7 @@ fn refit_candidate(
         &x0,
         &FitOptions {
             iters: opts.refit_iters,
-            // The effect's strength may lie anywhere in its range and refits
-            // are short: 5% of its range per step, less for a narrow basin.
-            lr_overrides: vec![(c.path.clone(), c.learning_rate)],
+            lr_overrides: vec![(c.path.clone(), refit_learning_rate(c, start))],
             ..opts.fit.clone()
         },
         |_| {},
@@ -1453,15 +1472,13 @@ pub fn diagnose(
             noise_check = check(&history, &stage, rays);
         }
         if !noise_check.passed {
-            // The budget cannot buy a decision: say so now, with what it would take.
-            progress("inconclusive: the simulation's noise is too large a share of the gap");
-            return Ok(inconclusive(
-                &stage,
-                &specs,
-                residual_or_empty(&stage, measured)?,
-                noise_check,
-                timings,
-                opts,
+            // The budget buys no more rays: go on at these. An effect that
+            // clears the held-out test can still be named; `none` cannot be
+            // said at this noise (unnamed_verdict).
+            progress(&format!(
+                "simulation noise {:.0}% of the gap at {rays} rays, above the {:.0}% a `none` needs; the budget buys no more rays",
+                100.0 * noise_check.share,
+                100.0 * opts.noise_share
             ));
         }
     }
@@ -1667,7 +1684,7 @@ pub fn diagnose(
             )
         }
         None => {
-            let effect = unnamed_verdict(&refitted, &opts.rule, noise_check.passed, real_gap);
+            let effect = unnamed_verdict(&refitted, &opts.rule, noise_check.passed);
             (
                 Verdict {
                     effect: effect.into(),
@@ -1719,40 +1736,34 @@ pub fn diagnose(
 
 /// The verdict when no refit qualifies ([`name_effect`]).
 ///
-/// Where the simulation's noise is a small enough share of the gap
-/// (`noise_passed`, [`crate::NoiseCheck`]) the gap is plainly real, and what
-/// decides is whether some refit still beats the null refit significantly
-/// (excess at least [`VerdictRule::min_excess`] and
-/// [`VerdictRule::min_excess_z`] standard errors) without explaining enough of
-/// the gap: then `"unexplained"` (something structured that no candidate
-/// accounts for), else `"none"` (no candidate above its limit of detection; what
-/// stays is a model-form residual). Where the noise is too large a share, a gap
-/// above [`VerdictRule::noise_factor`] × the noise level (`real_gap`) is still
-/// `"unexplained"`; anything less is `"inconclusive"`, never `"none"`: the
-/// noise may hide an effect.
+/// A refit that still beats the null refit significantly (excess at least
+/// [`VerdictRule::min_excess`] and [`VerdictRule::min_excess_z`] standard
+/// errors) without explaining enough of the gap says something structured is
+/// there that no candidate accounts for: `"unexplained"`. Otherwise, where the
+/// simulation's noise is a small enough share of the gap (`noise_passed`,
+/// [`crate::NoiseCheck`]) to have seen an effect above its limit of detection,
+/// `"none"`; where it is not, `"inconclusive"`, never `"none"`: the noise may
+/// hide an effect.
 ///
 /// ```
 /// use usray_optim::{unnamed_verdict, VerdictRule};
 /// let rule = VerdictRule::default();
-/// assert_eq!(unnamed_verdict(&[], &rule, true, true), "none");
-/// assert_eq!(unnamed_verdict(&[], &rule, false, true), "unexplained");
-/// assert_eq!(unnamed_verdict(&[], &rule, false, false), "inconclusive");
+/// assert_eq!(unnamed_verdict(&[], &rule, true), "none");
+/// assert_eq!(unnamed_verdict(&[], &rule, false), "inconclusive");
 /// ```
 pub fn unnamed_verdict(
     refits: &[EffectResult],
     rule: &VerdictRule,
     noise_passed: bool,
-    real_gap: bool,
 ) -> &'static str {
     let significant = refits.iter().any(|e| {
         e.excess.is_some_and(|x| {
             x >= rule.min_excess && e.excess_std.is_none_or(|se| x >= rule.min_excess_z * se)
         })
     });
-    match (noise_passed, significant || real_gap) {
-        (true, _) if significant => "unexplained",
-        (true, _) => "none",
-        (false, true) => "unexplained",
+    match (significant, noise_passed) {
+        (true, _) => "unexplained",
+        (false, true) => "none",
         (false, false) => "inconclusive",
     }
 }
@@ -1765,54 +1776,6 @@ fn residual_or_empty(stage: &Stage, measured: &[f64]) -> Result<ResidualReport, 
         measured,
         &ResidualOptions::default(),
     )
-}
-
-/// The diagnosis that stops after calibrating because the simulation's noise
-/// is too large a share of the gap for the budget: verdict `"inconclusive"`,
-/// no candidate scored.
-fn inconclusive(
-    stage: &Stage,
-    specs: &[ParamSpec],
-    residual: ResidualReport,
-    noise_check: NoiseCheck,
-    mut timings: Timings,
-    opts: &DiagnoseOptions,
-) -> Diagnosis {
-    timings.total_s = timings.calibration_s + timings.held_out_s;
-    Diagnosis {
-        calibrated: Calibrated {
-            params: specs
-                .iter()
-                .zip(&stage.params)
-                .map(|(s, v)| (s.path.clone(), *v))
-                .collect(),
-            params_std: specs.iter().map(|s| (s.path.clone(), None)).collect(),
-            loss: stage.eval.loss,
-            loss_held_out: stage.held_loss,
-            held_out_losses: stage.held_losses.clone(),
-        },
-        where_: residual.shares.clone(),
-        effects: Vec::new(),
-        null_refit: NullRefit::default(),
-        rule: opts.rule,
-        verdict: Verdict {
-            effect: "inconclusive".into(),
-            path: None,
-            shrink: 0.0,
-            alternatives: vec![],
-        },
-        noise_loss: stage.noise_loss,
-        noise_check,
-        spread_pairs: opts.spread_pairs,
-        held_out_seeds: opts.held_out_seeds,
-        paired: opts.paired,
-        held_out_frames: opts.held_out_measured.is_some(),
-        timings,
-        residual,
-        calibrated_image: stage.eval.image.data.clone(),
-        after_image: stage.eval.image.data.clone(),
-        after_scene: None,
-    }
 }
 
 /// Whether a verdict names an effect (not `"none"`, `"unexplained"` or

@@ -1,0 +1,124 @@
+//! The diagnosis on data its own model did not render, at CI size (the full-size
+//! tiers and their results: `bench/README.md`, `docs/diagnosis.md`).
+//!
+//! Tier (a): the base scenes of `bench/tier_a/` reduced to 32 elements, their
+//! "measured" data rendered unlike the model — 10× its rays, the independent
+//! sampler (the model: stratified), 6 bounces (the model: 4), a seed of another
+//! family and white noise at −50 dB of the largest channel sample.
+
+use usray::optim::blind::{measured_image, BlindOptions, Draw};
+use usray::optim::{diagnose, names_an_effect, DiagnoseOptions, Diagnosis};
+use usray::transport::scene::Sampler;
+use usray::transport::{RenderOptions, Scene};
+
+/// The model's rays per element, and the data's (10×).
+const MODEL_RAYS: usize = 12;
+const DATA_RAYS: usize = 120;
+
+/// The diagnoses of this file run one at a time: each renders on every core.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// A tier (a) base scene reduced for CI: 32 elements and 0.25 mm pixels.
+fn ci_scene(text: &str, name: &str) -> Scene {
+    let mut s = Scene::from_toml_str(text, name, ".").unwrap();
+    s.probe.n_elements = 32;
+    s.imaging.pixel_m = 0.25e-3;
+    s.validate().unwrap();
+    s
+}
+
+/// Diagnoses `base` against data rendered from `truth` unlike the model.
+fn diagnose_unlike(base: &Scene, mut truth: Scene, seed: u64) -> Diagnosis {
+    let _serial = ONE_AT_A_TIME
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    truth.acquisition.sampler = Sampler::Independent;
+    truth.acquisition.max_bounces = 6;
+    truth.validate().unwrap();
+    let data = BlindOptions {
+        noise_db: 50.0,
+        render: RenderOptions {
+            rays_per_element: Some(DATA_RAYS),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let measured = measured_image(
+        &Draw {
+            kind: "tier_a",
+            strength: 0.0,
+            scene: truth,
+            seed,
+        },
+        &data,
+    )
+    .unwrap();
+    let render = RenderOptions {
+        rays_per_element: Some(MODEL_RAYS),
+        ..Default::default()
+    };
+    let opts = DiagnoseOptions {
+        calibration_iters: 20,
+        refit_iters: 20,
+        confirm_top: 2,
+        render,
+        ..Default::default()
+    };
+    let d = diagnose(base, &measured, &opts, |_| {}).unwrap();
+    eprintln!(
+        "verdict {} (shrink {:.2}); held-out {:.3e}, noise {:.3e}, share {:.2}; {:?}",
+        d.verdict.effect,
+        d.verdict.shrink,
+        d.calibrated.loss_held_out,
+        d.noise_loss,
+        d.noise_check.share,
+        d.effects
+            .iter()
+            .filter(|e| e.shrink.is_some())
+            .map(|e| (e.effect.as_str(), e.excess, e.excess_std, e.gap_explained))
+            .collect::<Vec<_>>()
+    );
+    d
+}
+
+/// An off-axis tube whose wall is twice as thick as modelled (1.6 mm against
+/// 0.8): the hollow cylinder's thickness is a parameter candidate, and it must
+/// be named, its refit nearer the truth than the model's value.
+#[test]
+fn tier_a_tube_with_a_thicker_wall_names_wall_thickness() {
+    let text = include_str!("../bench/tier_a/a1_tube.toml");
+    let base = ci_scene(text, "a1_tube.toml");
+    let truth = ci_scene(
+        &text.replace("thickness_m = 0.8e-3", "thickness_m = 1.6e-3"),
+        "a1_wall.toml",
+    );
+    let d = diagnose_unlike(&base, truth, 90_002);
+    assert_eq!(d.verdict.effect, "wall_thickness");
+    let found = d
+        .effects
+        .iter()
+        .find(|e| e.effect == "wall_thickness" && e.shrink == Some(d.verdict.shrink))
+        .map(|e| e.params["objects.tube.thickness_m"])
+        .unwrap();
+    assert!(
+        (found - 1.6e-3).abs() < (0.8e-3f64 - 1.6e-3).abs() / 2.0,
+        "wall found {found:.3e} m for 1.6e-3"
+    );
+}
+
+/// A sphere with no effect: the verdict must not name one (`none` where the
+/// simulation's noise passed its check, else `inconclusive`).
+#[test]
+fn tier_a_sphere_without_an_effect_names_none() {
+    let text = include_str!("../bench/tier_a/a2_sphere.toml");
+    let base = ci_scene(text, "a2_sphere.toml");
+    let d = diagnose_unlike(&base, base.clone(), 90_005);
+    assert!(!names_an_effect(&d.verdict.effect), "{}", d.verdict.effect);
+    assert_eq!(
+        d.verdict.effect == "none",
+        d.noise_check.passed,
+        "{}",
+        d.verdict.effect
+    );
+    assert_ne!(d.verdict.effect, "unexplained");
+}
