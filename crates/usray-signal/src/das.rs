@@ -150,10 +150,13 @@ impl Sample for Complex64 {
 }
 
 /// Integer sample `i` and fraction `w` of position `s`, if both `i` and `i + 1` lie
-/// in a record of `ns` samples (NaN and negative positions give `None`).
+/// in a record of `ns` samples (NaN, negative and too large positions give
+/// `None`; the bound is tested in floating point first, since `as usize`
+/// saturates a huge position — a sidecar's `sampling_frequency_hz = 1e300` —
+/// and `i + 1` would then wrap).
 #[inline]
 fn locate(s: f64, ns: usize) -> Option<(usize, f64)> {
-    if s.is_nan() || s < 0.0 {
+    if !(s >= 0.0 && s + 1.0 < ns as f64) {
         return None;
     }
     let i = s as usize;
@@ -613,6 +616,20 @@ impl Das {
         CalibrationGrad {
             d_sound_speed: gc,
             d_pitch: gp,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::locate;
+
+    #[test]
+    fn locate_refuses_positions_outside_the_record() {
+        assert_eq!(locate(2.5, 4), Some((2, 0.5)));
+        assert_eq!(locate(0.0, 2), Some((0, 0.0)));
+        for s in [f64::NAN, -0.5, 3.0, 3.5, 1e300, f64::INFINITY, -1e300] {
+            assert_eq!(locate(s, 4), None, "{s}");
         }
     }
 }

@@ -135,3 +135,22 @@ fn frame_keys_are_validated_and_round_trip() {
         );
     }
 }
+
+/// A sidecar's huge sampling frequency or time origin puts every delay past the
+/// record: the image is formed (all dark), not a panic (issue 23: `das.rs`
+/// indexed past the data when `as usize` saturated).
+#[test]
+fn huge_sampling_frequency_or_time_origin_does_not_panic() {
+    for (fs, t0) in [(1e300, 0.0), (1e24, 0.0), (20e6, -1e300), (20e6, 1e300)] {
+        let mut ch = data(1, 8, 100);
+        ch.meta.sampling_frequency_hz = fs;
+        ch.meta.t0_s = t0;
+        let Ok(b) = BMode::new(&settings(), &ch.meta, ch.n_samples) else {
+            continue; // refused up front: as good
+        };
+        let mut ws = b.workspace();
+        if let Ok(img) = b.forward(&ch, &mut ws) {
+            assert!(img.data.iter().all(|v| v.is_finite()), "fs {fs}, t0 {t0}");
+        }
+    }
+}
