@@ -63,7 +63,7 @@ pub use noise_budget::{
     DEFAULT_NOISE_SHARE,
 };
 pub use objective::{
-    grid_shape, DualReplay, Evaluation, FdChannels, Objective, PathReplay, TransportGradient,
+    grid_shape, Evaluation, FdChannels, Objective, PathReplay, TransportGradient,
     PAIRED_SEED_OFFSET,
 };
 pub use parameter_candidates::{parameter_candidates, RELATIVE_RANGE};

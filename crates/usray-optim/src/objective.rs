@@ -128,45 +128,6 @@ fn dot_records(a: &ChannelData, b: &ChannelData, d: &[f64]) -> f64 {
     sum
 }
 
-/// Forward-mode AD through the transport's generic tracer: one `Dual<1>` render of
-/// the whole scene per parameter, dotted with `d_channels`. Kept as a check of the
-/// tracer's derivatives (`tests/calibration.rs` measures it against finite
-/// differences); not used by default.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct DualReplay;
-
-impl TransportGradient for DualReplay {
-    fn channel_gradient(
-        &self,
-        scene: &Scene,
-        params: &[&str],
-        d_channels: &[f64],
-        opts: &RenderOptions,
-    ) -> Result<Vec<f64>, SceneError> {
-        use usray_ad::Dual;
-        let mut out = Vec::with_capacity(params.len());
-        for &p in params {
-            scene.get(p)?;
-            let st = scene.lift::<Dual<1>>(|path, v| {
-                if path == p {
-                    Dual::variable(v, 0)
-                } else {
-                    Dual::constant(v)
-                }
-            })?;
-            let (samples, _, _) = usray_transport::render_lifted(scene, &st, opts);
-            out.push(
-                samples
-                    .iter()
-                    .zip(d_channels)
-                    .map(|(s, g)| s.eps[0] * g)
-                    .sum(),
-            );
-        }
-        Ok(out)
-    }
-}
-
 /// The result of one evaluation of the objective.
 #[derive(Clone, Debug)]
 pub struct Evaluation {
