@@ -264,11 +264,15 @@ fn zero_held_out_seeds_or_spread_pairs_are_refused() {
 /// lie nearer the truth (0.3) than the one-render loss's: the one-render
 /// calibration smooths the wall to quiet the simulation.
 ///
-/// With a budget too small to raise the rays, the diagnosis must go on at the
-/// rays it has, end `inconclusive` and say how many rays a decision would need.
+/// With a budget too small to raise the rays (1 s), the diagnosis must go on at
+/// the rays it has and, its noise above the target, end `inconclusive` and say
+/// how many rays a decision would need.
 #[test]
 fn no_effect_names_no_false_effect() {
-    let (base, _, r) = diagnose_draw(6, "none");
+    let (base, _, r) = diagnose_draw_with(6, "none", |d| DiagnoseOptions {
+        budget_s: Some(1.0),
+        ..d
+    });
     eprintln!(
         "no effect: verdict {} (shrink {:.2}); held-out {:.3e}, noise {:.3e}, share {:.2}",
         r.verdict.effect,
@@ -281,6 +285,17 @@ fn no_effect_names_no_false_effect() {
     assert!(["none", "inconclusive"].contains(&r.verdict.effect.as_str()));
     // `none` only where the noise check passed.
     assert_eq!(r.verdict.effect == "none", r.noise_check.passed);
+    // Too small a budget buys no rays: the diagnosis goes on at 12, and with
+    // its noise above the target it cannot say `none`.
+    assert_eq!(
+        r.noise_check.history.len(),
+        1,
+        "rays raised past the budget"
+    );
+    assert_eq!(r.verdict.effect, "inconclusive");
+    let needed = r.noise_check.rays_needed.expect("a gap above the noise");
+    assert!(needed > 12 && r.noise_check.seconds_needed.unwrap() > 1.0);
+    assert!(!r.noise_check.passed && r.noise_check.share > 0.25);
     let paired = {
         let _serial = one_at_a_time();
         let (b, mut d) = options(12, 20);
@@ -300,24 +315,6 @@ fn no_effect_names_no_false_effect() {
     );
     assert!(["none", "inconclusive"].contains(&paired.verdict.effect.as_str()));
     assert!((roughness(&paired) - truth).abs() < (roughness(&r) - truth).abs());
-    let (_, _, small) = diagnose_draw_with(6, "none", |d| DiagnoseOptions {
-        budget_s: Some(1.0),
-        ..d
-    });
-    // Too small a budget buys no rays: the diagnosis goes on at 12, and with
-    // its noise above the target it cannot say `none`.
-    assert_eq!(
-        small.noise_check.history.len(),
-        1,
-        "rays raised past the budget"
-    );
-    assert_eq!(small.verdict.effect, "inconclusive");
-    let needed = small
-        .noise_check
-        .rays_needed
-        .expect("a gap above the noise");
-    assert!(needed > 12 && small.noise_check.seconds_needed.unwrap() > 1.0);
-    assert!(!small.noise_check.passed && small.noise_check.share > 0.25);
 }
 
 /// A draw whose effect is outside the catalogue — an unmodelled wire beside the
