@@ -3,7 +3,7 @@
 //! `peers/disk`, each against its plain-cylinder base scene in
 //! `scenes/diagnose/`, must be named `volume_scattering`, with most of the
 //! calibrated residual inside the disk. Full-size runs and their numbers:
-//! `docs/diagnosis.md` ("Independent data").
+//! `docs/diagnosis.md` ("How well it works", tier (c)).
 
 use std::path::Path;
 use usray::optim::{diagnose, load_reference, DiagnoseOptions, Diagnosis};

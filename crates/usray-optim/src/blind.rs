@@ -22,8 +22,9 @@
 //! was fixed: power per volume is now `ρ·strength²`, it was `ρ^{−1/3}·strength²`,
 //! a factor `5^{4/3}` at 5 per mm³.)
 //!
-//! The depth gains were drawn from ±[1, 2] dB/cm until session 11. Two things
-//! were wrong with that. The magnitudes lay below the benchmark frame's limit of
+//! The depth gains are drawn up with depth, from [3, 6] dB/cm; ±[1, 2] dB/cm,
+//! drawn before, asked the wrong question in two ways.
+//! The magnitudes lay below the benchmark frame's limit of
 //! detection (about 2.4 dB/cm, three spreads of the gain refits on no-effect
 //! draws; `docs/diagnosis.md`) and six times below the attenuation draws' own
 //! depth dependence (a tissue attenuation `α` darkens an echo at depth `d` by

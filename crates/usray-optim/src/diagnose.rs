@@ -394,7 +394,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             // is what attenuation does (`2αf_c` dB/cm along every path, the
             // spectral down-shift aside; `tests/diagnosis.rs`), and with both
             // signs the two refits tied on master seed 1's attenuation draws of
-            // the blind benchmark (docs/diagnosis.md, session 11).
+            // the blind benchmark.
             range: (0.0, DEPTH_GAIN_MAX_DB_PER_CM),
             two_sided: false,
             null: Some(0.0),
@@ -663,7 +663,8 @@ pub struct DiagnoseOptions {
     pub refit_iters: usize,
     /// How many of the best-scored candidates are refitted (default 3).
     pub confirm_top: usize,
-    /// When the verdict names an effect, `"none"` or `"unexplained"`.
+    /// When the verdict names an effect, `"none"`, `"unexplained"` or
+    /// `"inconclusive"`.
     pub rule: VerdictRule,
     /// Pairs of independent seeds whose image differences give the noise
     /// realisations of each fit's parameter spread
@@ -679,11 +680,7 @@ pub struct DiagnoseOptions {
     /// independent seeds, so that no fit is rewarded for a quieter simulation,
     /// and the noise level is the paired loss of the calibrated model against
     /// its own image (default `false`: the paper's one-render loss, at half
-    /// the renders. Over the blind benchmark's nine no-effect draws the
-    /// one-render loss said `none` three times and `unexplained` six, the
-    /// paired loss `none` nine times; but on the full-size paper case the paired
-    /// calibration drifted to roughness 0.54 and its wall refit found 1.32 mm
-    /// for 1.00, where the one-render loss finds 1.002 mm; docs/diagnosis.md).
+    /// the renders; docs/diagnosis.md compares the two).
     pub paired: bool,
     /// Measured data held out from the fit — other frames of the same
     /// acquisition, on the same grid as the fitted image — against which every
