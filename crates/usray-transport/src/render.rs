@@ -71,12 +71,17 @@ pub struct RenderStats {
 
 /// Number of samples per record and `t0_s` for a scene (see the module docs).
 pub fn sample_grid(scene: &Scene) -> (usize, f64) {
-    let c = scene.imaging_sound_speed();
     let fs = scene.acquisition.sampling_frequency_hz;
+    ((record_duration_s(scene) * fs).ceil() as usize + 1, 0.0)
+}
+
+/// Length of one channel record, s: the round trip to `max_depth_m` at the
+/// imaging speed, the largest transmit delay and the pulse's support.
+pub(crate) fn record_duration_s(scene: &Scene) -> f64 {
+    let c = scene.imaging_sound_speed();
     let support =
         usray_signal::pulse::pulse_support_s(scene.probe.center_frequency_hz, scene.probe.cycles);
-    let dur = 2.0 * scene.acquisition.max_depth_m / c + max_transmit_delay_s(scene) + support;
-    ((dur * fs).ceil() as usize + 1, 0.0)
+    2.0 * scene.acquisition.max_depth_m / c + max_transmit_delay_s(scene) + support
 }
 
 /// The largest plane-wave transmit delay, s: `max_e |x_e sin θ| / c` with `c`

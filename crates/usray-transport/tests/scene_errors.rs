@@ -113,3 +113,58 @@ fn missing_scene_file_names_the_path_without_a_key() {
     );
     assert!(!msg.contains("key"), "{msg}");
 }
+
+/// Sizes past `scene::limits` are refused naming the key and the limit, before
+/// anything is allocated (issue 23: these aborted or ran out of memory).
+#[test]
+fn sizes_past_the_limits_name_the_key() {
+    for (old, new, key) in [
+        (
+            "n_elements = 128",
+            "n_elements = 1000000000",
+            "probe.n_elements",
+        ),
+        (
+            "max_bounces = 5",
+            "max_bounces = 4000000000",
+            "acquisition.max_bounces",
+        ),
+        (
+            "rays_per_element = 75",
+            "rays_per_element = 1000000000000",
+            "acquisition.rays_per_element",
+        ),
+        ("cycles = 3.0", "cycles = 1.0e9", "probe.cycles"),
+        (
+            "max_depth_m = 0.03",
+            "max_depth_m = 1.0e6",
+            "acquisition.max_depth_m",
+        ),
+        (
+            "elevation_m = 4.0e-3",
+            "elevation_m = 1e300",
+            "probe.elevation_m",
+        ),
+        (
+            "sampling_frequency_hz = 40.0e6",
+            "sampling_frequency_hz = 1.0e15",
+            "acquisition.sampling_frequency_hz",
+        ),
+        ("pixel_m = 0.1e-3", "pixel_m = 1.0e-9", "imaging.pixel_m"),
+        (
+            "element_width_m = 0.27e-3",
+            "element_width_m = 0.5e-3",
+            "probe.element_width_m",
+        ),
+        (
+            "z_range_m = [0.002, 0.028]",
+            "z_range_m = [-0.02, -0.01]",
+            "imaging.z_range_m",
+        ),
+    ] {
+        let text = base();
+        assert!(text.contains(old), "{old}");
+        let e = err(&text.replace(old, new));
+        assert_eq!(e.key, key, "{e}");
+    }
+}

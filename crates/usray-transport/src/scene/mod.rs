@@ -14,7 +14,7 @@ mod schema;
 
 pub use lift::{MaterialT, ObjectT, SceneT};
 pub use schema::{
-    Acquisition, Emission, Imaging, Material, Medium, Object, Probe, Sampler, ShapeKind,
+    limits, Acquisition, Emission, Imaging, Material, Medium, Object, Probe, Sampler, ShapeKind,
 };
 
 use std::collections::BTreeMap;

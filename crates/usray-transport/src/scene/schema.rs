@@ -468,9 +468,134 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 if let Some(sc) = o.scale {
                     pos(&k("scale"), sc)?;
                 }
+                forbid("radius_m", o.radius_m.is_some())?;
                 forbid("thickness_m", o.thickness_m.is_some())?;
             }
         }
     }
-    Ok(())
+    // 8. Consistency and sizes, checked before anything is allocated or traced.
+    if p.element_width_m > p.pitch_m {
+        return err(
+            "probe.element_width_m",
+            &format!(
+                "expected element_width_m ≤ pitch_m = {}, found {}",
+                p.pitch_m, p.element_width_m
+            ),
+        );
+    }
+    if im.z_range_m[1] <= 0.0 {
+        return err(
+            "imaging.z_range_m",
+            &format!(
+                "the window [{}, {}] m lies above the probe (z ≤ 0): expected depths below it",
+                im.z_range_m[0], im.z_range_m[1]
+            ),
+        );
+    }
+    limits::check(s)
+}
+
+/// Limits on the sizes a scene implies, so that a typo (`n_elements =
+/// 1000000000`, `sampling_frequency_hz = 1.0e15`) is an error naming the key
+/// and the limit, not an allocation failure or a run that never ends.
+pub mod limits {
+    use super::{Scene, SceneError};
+
+    /// Largest `probe.n_elements` (the largest clinical arrays have 256; 2-D
+    /// matrix arrays up to a few thousand).
+    pub const MAX_ELEMENTS: usize = 4096;
+    /// Largest number of transmits (`acquisition.angles_deg`).
+    pub const MAX_TRANSMITS: usize = 1024;
+    /// Largest `acquisition.max_bounces`.
+    pub const MAX_BOUNCES: u32 = 64;
+    /// Largest `acquisition.rays_per_element`.
+    pub const MAX_RAYS_PER_ELEMENT: usize = 1_000_000;
+    /// Largest `probe.cycles` of the pulse.
+    pub const MAX_CYCLES: f64 = 1000.0;
+    /// Largest `probe.elevation_m` and `acquisition.max_depth_m`, m.
+    pub const MAX_LENGTH_M: f64 = 1.0;
+    /// Largest number of samples of all channel records together
+    /// (transmits × elements × samples per record; 512 MB as `f64`).
+    pub const MAX_CHANNEL_SAMPLES: f64 = 6.4e7;
+    /// Largest number of image pixels (e.g. 4000 × 4000).
+    pub const MAX_PIXELS: f64 = 1.6e7;
+
+    /// Checks `s` against the limits above (after the per-key checks).
+    pub(super) fn check(s: &Scene) -> Result<(), SceneError> {
+        let f = s.source.as_str();
+        let over = |key: &str, found: String, limit: String| {
+            Err(SceneError::new(
+                f,
+                key,
+                format!("{found} is past the limit of {limit} (usray_transport::scene::limits)"),
+            ))
+        };
+        let (p, a, im) = (&s.probe, &s.acquisition, &s.imaging);
+        if p.n_elements > MAX_ELEMENTS {
+            return over(
+                "probe.n_elements",
+                p.n_elements.to_string(),
+                MAX_ELEMENTS.to_string(),
+            );
+        }
+        if a.angles_deg.len() > MAX_TRANSMITS {
+            return over(
+                "acquisition.angles_deg",
+                format!("{} transmits", a.angles_deg.len()),
+                MAX_TRANSMITS.to_string(),
+            );
+        }
+        if a.max_bounces > MAX_BOUNCES {
+            return over(
+                "acquisition.max_bounces",
+                a.max_bounces.to_string(),
+                MAX_BOUNCES.to_string(),
+            );
+        }
+        if a.rays_per_element > MAX_RAYS_PER_ELEMENT {
+            return over(
+                "acquisition.rays_per_element",
+                a.rays_per_element.to_string(),
+                MAX_RAYS_PER_ELEMENT.to_string(),
+            );
+        }
+        if p.cycles > MAX_CYCLES {
+            return over("probe.cycles", p.cycles.to_string(), MAX_CYCLES.to_string());
+        }
+        for (key, v) in [
+            ("probe.elevation_m", p.elevation_m),
+            ("acquisition.max_depth_m", a.max_depth_m),
+        ] {
+            if v > MAX_LENGTH_M {
+                return over(key, format!("{v} m"), format!("{MAX_LENGTH_M} m"));
+            }
+        }
+        // Samples per record from the record's duration (render.rs), in
+        // floating point: a huge product must not wrap.
+        let per_record = crate::render::record_duration_s(s) * a.sampling_frequency_hz;
+        let total = per_record * p.n_elements as f64 * a.angles_deg.len() as f64;
+        if total.is_nan() || total > MAX_CHANNEL_SAMPLES {
+            return over(
+                "acquisition.sampling_frequency_hz",
+                format!(
+                    "{total:.3e} channel samples ({} transmits × {} elements × {per_record:.3e} samples per record of {:.3e} s at {} Hz, with max_depth_m, probe.cycles and probe.center_frequency_hz)",
+                    a.angles_deg.len(),
+                    p.n_elements,
+                    crate::render::record_duration_s(s),
+                    a.sampling_frequency_hz
+                ),
+                format!("{MAX_CHANNEL_SAMPLES:.1e}"),
+            );
+        }
+        let pixels = ((im.x_range_m[1] - im.x_range_m[0]) / im.pixel_m + 1.0)
+            * ((im.z_range_m[1] - im.z_range_m[0]) / im.pixel_m + 1.0);
+        if pixels.is_nan() || pixels > MAX_PIXELS {
+            return over(
+                "imaging.pixel_m",
+                format!("{pixels:.3e} pixels"),
+                format!("{MAX_PIXELS:.1e}"),
+            );
+        }
+        Ok(())
+    }
 }
