@@ -11,7 +11,7 @@ use usray::optim::blind::{
 };
 use usray::optim::{
     catalogue, default_free_params, diagnose, parameter_candidates, score_candidate, Candidate,
-    DiagnoseOptions, Diagnosis, Objective, TIE_MARGIN,
+    DiagnoseOptions, Diagnosis, LossSetup, Objective, TIE_MARGIN,
 };
 use usray::transport::{RenderOptions, Scene};
 
@@ -377,12 +377,28 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
         .into_iter()
         .find(|c| c.effect == "sound_speed")
         .unwrap();
-    let several = score_candidate(&speed, &base, &measured, base_loss, &render, false).unwrap();
+    let several = score_candidate(
+        &speed,
+        &base,
+        &measured,
+        base_loss,
+        &render,
+        &LossSetup::default(),
+    )
+    .unwrap();
     let null_only = Candidate {
         onsets: vec![c0],
         ..speed.clone()
     };
-    let one = score_candidate(&null_only, &base, &measured, base_loss, &render, false).unwrap();
+    let one = score_candidate(
+        &null_only,
+        &base,
+        &measured,
+        base_loss,
+        &render,
+        &LossSetup::default(),
+    )
+    .unwrap();
     eprintln!(
         "sound speed +4%: five onsets score {:.3} from {:.1} m/s; null only {:.3} from {:.1} m/s (true {:.1})",
         several.score,
@@ -431,7 +447,15 @@ fn attenuation_inside_the_object_is_scored_inside_its_basin() {
         .into_iter()
         .filter(|c| c.effect == "attenuation" || c.effect == "depth_gain")
         .map(|c| {
-            let s = score_candidate(&c, &base, &measured, base_loss, &render, false).unwrap();
+            let s = score_candidate(
+                &c,
+                &base,
+                &measured,
+                base_loss,
+                &render,
+                &LossSetup::default(),
+            )
+            .unwrap();
             (c, s.score, s.start)
         })
         .collect();

@@ -244,6 +244,16 @@ pub enum Command {
         /// round runs only within the budget).
         #[arg(long, value_name = "N", default_value_t = 2)]
         rounds: usize,
+        /// Smooth both images by a Gaussian of this many wavelengths (standard
+        /// deviation) before every loss, so that speckle and electronic noise,
+        /// which no simulation reproduces pixel for pixel, average out; 0 compares
+        /// pixel by pixel.
+        #[arg(long, value_name = "WAVELENGTHS", default_value_t = usray_optim::DEFAULT_SMOOTHING_WAVELENGTHS)]
+        smoothing: f64,
+        /// Do not floor both images at the measurement's noise level (estimated
+        /// after the calibration where the model's image is empty).
+        #[arg(long)]
+        no_floor: bool,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

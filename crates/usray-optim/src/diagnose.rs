@@ -96,6 +96,7 @@
 //! unbiased in the simulation's variance in its ℓ2 term), and the noise level is
 //! the paired loss of the calibrated model against its own seed-`s` image.
 
+use crate::comparison::{noise_floor, Comparison};
 use crate::fit::{fit, FitOptions};
 use crate::noise_budget::{
     noise_exponent, rays_needed, simulation_noise_share, NoiseCheck, DEFAULT_NOISE_EXPONENT,
@@ -264,12 +265,9 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 // width `Δt = c_wall·cycles/(2 f_c)` apart, at `(k + ½)Δt`, and a
                 // refit steps a quarter of it. Thinnest wall in a refit: a quarter
                 // wavelength (or an eighth of the radius).
-                let dt = m.sound_speed_m_s * scene.probe.cycles / (2.0 * f_c);
+                let dt = wall_echo_width_m(scene, m);
                 let range = (0.25 * lambda.min(0.5 * r), 0.95 * r);
-                let mut onsets: Vec<f64> = (0..)
-                    .map(|k| (k as f64 + 0.5) * dt)
-                    .take_while(|t| *t < range.1)
-                    .collect();
+                let mut onsets = wall_onsets(dt, range.1);
                 if onsets.is_empty() {
                     // A cylinder thinner than half an echo width: one onset.
                     onsets.push(0.5 * (range.0 + range.1));
@@ -282,7 +280,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                     two_sided: false,
                     null: None,
                     fixed: vec![],
-                    learning_rate: (0.25 * dt / (range.1 - range.0)).min(EFFECT_LEARNING_RATE),
+                    learning_rate: wall_learning_rate(dt, range),
                 });
             }
         }
@@ -466,7 +464,7 @@ pub fn score_candidate(
     measured: &[f64],
     calibrated_loss: f64,
     render: &RenderOptions,
-    paired: bool,
+    setup: &LossSetup,
 ) -> Result<Score, OptimError> {
     let spec = ParamSpec {
         path: c.path.clone(),
@@ -474,13 +472,12 @@ pub fn score_candidate(
         max: c.range.1,
     };
     let objective_at = |v: f64, render: &RenderOptions| -> Result<Objective, OptimError> {
-        Ok(Objective::new(
+        setup.objective(
             c.switched_on(calibrated, v)?,
-            measured.to_vec(),
+            measured,
             vec![spec.clone()],
-            render.clone(),
-        )?
-        .with_pairing(paired))
+            render,
+        )
     };
     // The onset: the only one, or the best of a few by loss alone, refined by
     // trying the points half and a quarter of the onsets' spacing either side of
@@ -539,11 +536,10 @@ pub fn score_candidate(
             1.0
         };
     let moved = obj.value(&[onset + h])?;
-    let jj: f64 = moved
-        .image
-        .data
+    let jj: f64 = obj
+        .compared(&moved.image)
         .iter()
-        .zip(&e.image.data)
+        .zip(&obj.compared(&e.image))
         .map(|(a, b)| ((a - b) / h).powi(2))
         .sum();
     let gauss_newton = 2.0 * obj.loss.lambda2 * jj / e.image.data.len() as f64;
@@ -709,7 +705,23 @@ pub struct DiagnoseOptions {
     /// hold for a `"none"` ([`crate::simulation_noise_share`]; default
     /// [`DEFAULT_NOISE_SHARE`]).
     pub noise_share: f64,
+    /// Standard deviation of the Gaussian both images are smoothed by before
+    /// every loss, in wavelengths at the probe's centre frequency
+    /// ([`diagnosis_smoothing`]; default [`DEFAULT_SMOOTHING_WAVELENGTHS`]; 0:
+    /// none). Speckle and electronic noise, which no simulation reproduces
+    /// pixel for pixel, average out over it; echoes keep their place.
+    pub smoothing_wavelengths: f64,
+    /// Floor both images at the measurement's noise level after the
+    /// calibration ([`crate::noise_floor`]; default `true`): differences the
+    /// measurement's own noise hides are no evidence of an effect.
+    pub noise_floor: bool,
 }
+
+/// Default [`DiagnoseOptions::smoothing_wavelengths`]: half a wavelength, a
+/// Gaussian whose full width at half maximum (1.2 λ) is under one resolution
+/// cell of the usual F-numbers and pulses (about `F#·λ` across, `N_cycles·λ/2`
+/// deep), so an echo's position and width still show.
+pub const DEFAULT_SMOOTHING_WAVELENGTHS: f64 = 0.5;
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
@@ -727,6 +739,8 @@ impl Default for DiagnoseOptions {
             render: RenderOptions::default(),
             budget_s: None,
             noise_share: DEFAULT_NOISE_SHARE,
+            smoothing_wavelengths: DEFAULT_SMOOTHING_WAVELENGTHS,
+            noise_floor: true,
         }
     }
 }
@@ -968,6 +982,9 @@ pub struct Diagnosis {
     pub held_out_seeds: usize,
     /// Whether every loss was the paired loss ([`DiagnoseOptions::paired`]).
     pub paired: bool,
+    /// How the images were compared in every loss after the calibration (its
+    /// smoothing and the measurement's noise floor).
+    pub comparison: Comparison,
     /// Whether the held-out losses were measured against held-out measured
     /// data (other frames, [`DiagnoseOptions::held_out_measured`]) rather than
     /// the fitted data.
@@ -1063,11 +1080,35 @@ pub fn name_effect(
     Some((named, tied))
 }
 
+/// A wall's echo width `Δt = c_wall·cycles/(2 f_c)`, m: the wall thickness
+/// that puts its inner echo one pulse envelope FWHM (`cycles/f_c`,
+/// `usray_signal::pulse`) after its outer one. The loss has a basin about this
+/// wide around the true wall.
+pub(crate) fn wall_echo_width_m(scene: &Scene, wall: &usray_transport::scene::Material) -> f64 {
+    wall.sound_speed_m_s * scene.probe.cycles / (2.0 * scene.probe.center_frequency_hz)
+}
+
+/// Walls one echo width `dt` apart, at `(k + ½)·dt`, below `max_m`: the onsets
+/// at which a wall is scored.
+pub(crate) fn wall_onsets(dt: f64, max_m: f64) -> Vec<f64> {
+    (0..)
+        .map(|k| (k as f64 + 0.5) * dt)
+        .take_while(|t| *t < max_m)
+        .collect()
+}
+
+/// A wall refit's step: a quarter of the echo width `dt`, as a fraction of
+/// `range` (at most [`EFFECT_LEARNING_RATE`]).
+pub(crate) fn wall_learning_rate(dt: f64, range: (f64, f64)) -> f64 {
+    (0.25 * dt / (range.1 - range.0)).min(EFFECT_LEARNING_RATE)
+}
+
 /// Multiple of the calibration stage's time (calibration, held-out losses and
 /// noise level) that a whole diagnosis takes at the same rays: scoring every
-/// candidate, the null refit, three refits and the parameter spreads add about
-/// this much again and more (measured on the tier-(a) and tier-(b) benchmarks,
-/// `bench/README.md`: 4.1–6.3; the upper end is taken).
+/// candidate, the null refit, three refits and the parameter spreads add the
+/// rest. Measured as the whole diagnosis's time over its calibration's on the
+/// benchmarks of `bench/README.md`: 4.0–8.7 (fewer candidates refit quickly on
+/// data without an effect); 6 is the middle, so an estimate may be off by ±40%.
 pub const DIAGNOSIS_OVER_CALIBRATION: f64 = 6.0;
 
 /// At most this many raises of the rays within a budget
@@ -1122,6 +1163,9 @@ pub fn calibration_spec(scene: &Scene, text: &str) -> Result<ParamSpec, OptimErr
 /// The calibrated model at one ray count: the fit, its image on seed `s`, the
 /// held-out evaluations and the noise level.
 struct Stage {
+    /// How this stage's losses are taken (the floor estimated at its
+    /// calibration).
+    setup: LossSetup,
     objective: Objective,
     params: Vec<f64>,
     scene: Scene,
@@ -1132,6 +1176,47 @@ struct Stage {
     noise_loss: f64,
     render_s: RenderOptions,
     renders_held: Vec<RenderOptions>,
+}
+
+/// How every loss of a diagnosis is taken: paired or not
+/// ([`DiagnoseOptions::paired`]) and through which [`Comparison`] (the
+/// smoothing of [`DiagnoseOptions::smoothing_wavelengths`] and, after the
+/// calibration, the measurement's noise floor).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LossSetup {
+    /// The paired loss ([`crate::Objective::pair_seeds`]).
+    pub paired: bool,
+    /// The comparison of the images ([`crate::Objective::comparison`]).
+    pub comparison: Comparison,
+}
+
+impl LossSetup {
+    /// The objective of `scene` against `measured` for `specs`, rendered with
+    /// `render`, its loss taken this way.
+    ///
+    /// # Errors
+    /// As [`Objective::new`].
+    pub fn objective(
+        &self,
+        scene: Scene,
+        measured: &[f64],
+        specs: Vec<ParamSpec>,
+        render: &RenderOptions,
+    ) -> Result<Objective, OptimError> {
+        Ok(
+            Objective::new(scene, measured.to_vec(), specs, render.clone())?
+                .with_pairing(self.paired)
+                .with_comparison(self.comparison),
+        )
+    }
+}
+
+/// The smoothing of a diagnosis's comparison: a Gaussian of
+/// [`DiagnoseOptions::smoothing_wavelengths`] wavelengths `λ = c/f_c` (the
+/// medium's speed, the probe's centre frequency) on the scene's pixel grid.
+pub fn diagnosis_smoothing(scene: &Scene, wavelengths: f64) -> Comparison {
+    let wavelength_m = scene.medium.sound_speed_m_s / scene.probe.center_frequency_hz;
+    Comparison::smoothing(wavelengths * wavelength_m, scene.imaging.pixel_m)
 }
 
 /// Calibrates `specs` of `scene` from `start` for `iters` iterations at `rays`,
@@ -1162,13 +1247,14 @@ fn calibrate(
         })
         .collect();
     let t = Instant::now();
-    let mut objective = Objective::new(
-        scene.clone(),
-        measured.to_vec(),
-        specs.to_vec(),
-        render_s.clone(),
-    )?
-    .with_pairing(opts.paired);
+    // The calibration compares smoothed images; the floor needs a calibrated
+    // model to say where the scene is empty.
+    let smoothing = diagnosis_smoothing(scene, opts.smoothing_wavelengths);
+    let mut setup = LossSetup {
+        paired: opts.paired,
+        comparison: smoothing,
+    };
+    let mut objective = setup.objective(scene.clone(), measured, specs.to_vec(), &render_s)?;
     let x0 = start.map_or_else(|| objective.initial_physical(), <[f64]>::to_vec);
     let cal = fit(
         &mut objective,
@@ -1180,27 +1266,37 @@ fn calibrate(
         |_| {},
     )?;
     let cal_scene = objective.scene_at(&cal.final_params)?;
-    let eval = objective.value(&cal.final_params)?;
+    let mut eval = objective.value(&cal.final_params)?;
+    if opts.noise_floor {
+        let (nz, nx) = (eval.image.nz, eval.image.nx);
+        setup.comparison.floor = noise_floor(
+            &smoothing.smooth(&eval.image.data, nz, nx),
+            &smoothing.smooth(measured, nz, nx),
+        );
+        objective.comparison = setup.comparison;
+        eval = objective.value(&cal.final_params)?;
+    }
     timings.calibration_s += t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let held = held_out(&cal_scene, held_data, &renders_held, opts.paired)?;
+    let held = held_out(&cal_scene, held_data, &renders_held, &setup)?;
     let held_losses: Vec<f64> = held.iter().map(|e| e.loss).collect();
     let held_loss = mean(&held_losses);
     // The noise level: the same loss with the calibrated model's own image (seed
     // s) in the place of the data.
     let noise_loss = if opts.paired {
-        let own = held_out(&cal_scene, &eval.image.data, &renders_held, true)?;
+        let own = held_out(&cal_scene, &eval.image.data, &renders_held, &setup)?;
         mean_loss(&own)
     } else {
         mean(
             &held
                 .iter()
-                .map(|e| objective.loss.value(&e.image.data, &eval.image.data))
+                .map(|e| objective.loss_between(&e.image, &eval.image))
                 .collect::<Vec<_>>(),
         )
     };
     timings.held_out_s += t.elapsed().as_secs_f64();
     Ok(Stage {
+        setup,
         objective,
         params: cal.final_params,
         scene: cal_scene,
@@ -1265,8 +1361,9 @@ fn refit_candidate(
         max: c.range.1,
     }];
     refit_specs.extend(specs.iter().cloned());
-    let mut obj = Objective::new(on, measured.to_vec(), refit_specs, stage.render_s.clone())?
-        .with_pairing(opts.paired);
+    let mut obj = stage
+        .setup
+        .objective(on, measured, refit_specs, &stage.render_s)?;
     let x0 = obj.initial_physical();
     let r = fit(
         &mut obj,
@@ -1279,7 +1376,7 @@ fn refit_candidate(
         |_| {},
     )?;
     let fitted = obj.scene_at(&r.final_params)?;
-    let after = held_out(&fitted, held_data, &stage.renders_held, opts.paired)?;
+    let after = held_out(&fitted, held_data, &stage.renders_held, &stage.setup)?;
     let t_spread = Instant::now();
     // The refit's image on the fit's seed (one render, also with a paired loss).
     let image_s = Objective::new(
@@ -1413,7 +1510,7 @@ pub fn diagnose(
             _ => None,
         }
         .unwrap_or(DEFAULT_NOISE_EXPONENT);
-        let s = simulation_noise_share(stage.noise_loss, stage.held_loss);
+        let s = share(stage);
         let needed = rays_needed(
             rays,
             stage.noise_loss,
@@ -1495,7 +1592,12 @@ pub fn diagnose(
     timings.spread_s += t.elapsed().as_secs_f64();
 
     // Step 2: where.
-    let residual = residual_or_empty(&stage, measured)?;
+    let residual = analyse_residual(
+        &cal_scene,
+        &stage.eval.image.data,
+        measured,
+        &ResidualOptions::default(),
+    )?;
 
     // Step 3: score every candidate by one value + gradient at its onset.
     let t = Instant::now();
@@ -1511,7 +1613,7 @@ pub fn diagnose(
             measured,
             stage.eval.loss,
             &render_s,
-            opts.paired,
+            &stage.setup,
         );
         let (sc, failed) = match scored {
             Ok(sc) => (sc, None),
@@ -1551,10 +1653,12 @@ pub fn diagnose(
     }
     timings.scoring_s = t.elapsed().as_secs_f64();
     let mut order: Vec<usize> = (0..effects.len()).collect();
+    // Completed candidates first, then by score, highest first.
     order.sort_by(|&a, &b| {
-        (effects[a].failed.is_some(), -effects[a].score)
-            .partial_cmp(&(effects[b].failed.is_some(), -effects[b].score))
-            .unwrap_or(std::cmp::Ordering::Equal)
+        let failed = |k: usize| effects[k].failed.is_some();
+        failed(a)
+            .cmp(&failed(b))
+            .then(effects[b].score.total_cmp(&effects[a].score))
     });
 
     // Step 4: refit the leading candidates; held-out shrink.
@@ -1562,13 +1666,10 @@ pub fn diagnose(
     // The control: the base parameters alone, refitted as long as each candidate,
     // on the calibration's seed, from a fresh Adam.
     progress("refitting the base parameters alone (the null refit)");
-    let mut null_obj = Objective::new(
-        cal_scene.clone(),
-        measured.to_vec(),
-        specs.clone(),
-        render_s.clone(),
-    )?
-    .with_pairing(opts.paired);
+    let mut null_obj =
+        stage
+            .setup
+            .objective(cal_scene.clone(), measured, specs.clone(), &render_s)?;
     let null_fit = fit(
         &mut null_obj,
         &stage.params,
@@ -1582,7 +1683,7 @@ pub fn diagnose(
         &null_obj.scene_at(&null_fit.final_params)?,
         held_data,
         &stage.renders_held,
-        opts.paired,
+        &stage.setup,
     )?;
     let null_losses: Vec<f64> = null_after.iter().map(|e| e.loss).collect();
     // Per-seed shrinks relative to the calibrated held-out mean (common random
@@ -1722,6 +1823,7 @@ pub fn diagnose(
         spread_pairs: opts.spread_pairs,
         held_out_seeds: opts.held_out_seeds,
         paired: opts.paired,
+        comparison: stage.setup.comparison,
         held_out_frames: opts.held_out_measured.is_some(),
         timings,
         residual,
@@ -1763,16 +1865,6 @@ pub fn unnamed_verdict(
         (false, true) => "none",
         (false, false) => "inconclusive",
     }
-}
-
-/// The residual analysis of a calibration stage (step 2).
-fn residual_or_empty(stage: &Stage, measured: &[f64]) -> Result<ResidualReport, OptimError> {
-    analyse_residual(
-        &stage.scene,
-        &stage.eval.image.data,
-        measured,
-        &ResidualOptions::default(),
-    )
 }
 
 /// Whether a verdict names an effect (not `"none"`, `"unexplained"` or
@@ -1849,18 +1941,18 @@ pub fn diagnose_compound(
 }
 
 /// `scene`'s loss against `measured` on each held-out render (no free
-/// parameters; the paired loss with `paired`).
+/// parameters; the loss taken as `setup` says).
 fn held_out(
     scene: &Scene,
     measured: &[f64],
     renders: &[RenderOptions],
-    paired: bool,
+    setup: &LossSetup,
 ) -> Result<Vec<Evaluation>, OptimError> {
     renders
         .iter()
         .map(|r| {
-            Objective::new(scene.clone(), measured.to_vec(), vec![], r.clone())?
-                .with_pairing(paired)
+            setup
+                .objective(scene.clone(), measured, vec![], r)?
                 .value(&[])
         })
         .collect()

@@ -32,6 +32,7 @@
 
 mod adam;
 pub mod blind;
+mod comparison;
 mod diagnose;
 mod fd;
 mod fit;
@@ -46,10 +47,12 @@ pub mod residual;
 mod spread;
 
 pub use adam::{Adam, AdamGroup};
+pub use comparison::{noise_floor, Comparison, MIN_DARK_SHARE, MODEL_DARK_GREY};
 pub use diagnose::{
-    calibration_spec, catalogue, default_free_params, diagnose, diagnose_compound, held_out_seed,
-    name_effect, names_an_effect, score_candidate, unnamed_verdict, Calibrated, Candidate,
-    DiagnoseOptions, Diagnosis, EffectResult, NullRefit, Score, Timings, Verdict, VerdictRule,
+    calibration_spec, catalogue, default_free_params, diagnose, diagnose_compound,
+    diagnosis_smoothing, held_out_seed, name_effect, names_an_effect, score_candidate,
+    unnamed_verdict, Calibrated, Candidate, DiagnoseOptions, Diagnosis, EffectResult, LossSetup,
+    NullRefit, Score, Timings, Verdict, VerdictRule, DEFAULT_SMOOTHING_WAVELENGTHS,
     DEPTH_GAIN_MAX_DB_PER_CM, DETECTION_LIMIT_SPREADS, DIAGNOSIS_OVER_CALIBRATION,
     EFFECT_LEARNING_RATE, HELD_OUT_SEED_STRIDE, IMPEDANCE_MARGIN, MAX_RAY_FACTOR, MAX_RAY_RAISES,
     MAX_STEP_HALVINGS, MIN_CHECKED_REDUCTION, SCATTERER_DENSITY_PER_MM3, TIE_MARGIN,

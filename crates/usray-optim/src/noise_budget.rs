@@ -107,7 +107,8 @@ pub struct NoiseCheck {
     /// `None` when no ray count would (the held-out loss is all noise).
     pub rays_needed: Option<usize>,
     /// The diagnosis's estimated wall time at [`NoiseCheck::rays_needed`],
-    /// seconds (its time so far scaled by the rays).
+    /// seconds: its calibration's time per ray × the rays ×
+    /// [`crate::DIAGNOSIS_OVER_CALIBRATION`].
     pub seconds_needed: Option<f64>,
     /// Each calibration's rays and share, in order (more than one where the
     /// rays were raised within the budget).

@@ -7,7 +7,9 @@
 //!    objective's fixed [`RenderOptions`] (seed: common random numbers);
 //! 2. form the B-mode `I = B(P)` on the scene's `[imaging]` grid
 //!    ([`usray_signal::BMode`]);
-//! 3. loss `L(I, I_ref)` and `∂L/∂I` (paper eq. `weighted_l1_l2_loss`);
+//! 3. loss `L(C(I), C(I_ref))` and `∂L/∂I` (paper eq. `weighted_l1_l2_loss`), with
+//!    `C` the [`Objective::comparison`] (smoothing and noise floor, the identity
+//!    unless set: [`Comparison`]) and `∂L/∂I` pulled back through it;
 //! 4. `∂L/∂P = Bᵀ ∂L/∂I` ([`usray_signal::BMode::vjp`], paper eq. `l2_backprop`);
 //! 5. transport part `Σ ∂L/∂P · ∂P/∂θ_j` by path replay with the same random
 //!    numbers ([`PathReplay`], behind the [`TransportGradient`] trait);
@@ -36,6 +38,7 @@
 //! derivative. Finite differences of the same fixed-seed pipeline
 //! ([`Objective::value`]) are the reference it is checked against.
 
+use crate::comparison::Comparison;
 use crate::loss::L1L2;
 use crate::params::ParamSpec;
 use crate::OptimError;
@@ -164,6 +167,9 @@ pub struct Objective {
     pub specs: Vec<ParamSpec>,
     /// The image loss.
     pub loss: L1L2,
+    /// How the simulated image is compared with the reference before the loss
+    /// (smoothing and noise floor, [`Comparison`]); the identity by default.
+    pub comparison: Comparison,
     /// Render options (ray count, seed, threads): fixed across evaluations, so
     /// every evaluation uses common random numbers.
     pub opts: RenderOptions,
@@ -240,6 +246,7 @@ impl Objective {
             reference,
             specs,
             loss: L1L2::default(),
+            comparison: Comparison::identity(),
             opts,
             transmit_batches: Vec::new(),
             paired_seed: None,
@@ -301,12 +308,11 @@ impl Objective {
         let scene = self.scene_at(physical)?;
         let (_, _, _, image, mut secs) = self.forward(&scene, &self.opts)?;
         let loss = match self.paired_opts() {
-            None => self.loss.value(&image.data, &self.reference),
+            None => self.image_loss(&image, None),
             Some(paired) => {
                 let (_, _, _, other, s) = self.forward(&scene, &paired)?;
                 secs += s;
-                self.loss
-                    .paired_value(&image.data, &other.data, &self.reference)
+                self.image_loss(&image, Some(&other))
             }
         };
         Ok(Evaluation {
@@ -333,21 +339,11 @@ impl Objective {
             Some(o) => Some((self.forward(&scene, &o)?, o)),
             None => None,
         };
-        let mut d_image = vec![0.0; image.data.len()];
-        let mut d_image_b = vec![0.0; image.data.len()];
-        let loss = match &second {
-            None => self
-                .loss
-                .value_and_gradient(&image.data, &self.reference, &mut d_image),
+        let (loss, d_image, d_image_b) = match &second {
+            None => self.image_loss_and_gradient(&image, None),
             Some(((_, _, _, image_b, s), _)) => {
                 secs += s;
-                self.loss.paired_value_and_gradient(
-                    &image.data,
-                    &image_b.data,
-                    &self.reference,
-                    &mut d_image,
-                    &mut d_image_b,
-                )
+                self.image_loss_and_gradient(&image, Some(image_b))
             }
         };
         let fc_part = match &second {
@@ -374,6 +370,86 @@ impl Objective {
             demod_fc_part,
             render_seconds: secs,
         })
+    }
+
+    /// This objective, comparing images through `comparison`.
+    #[must_use]
+    pub fn with_comparison(mut self, comparison: Comparison) -> Self {
+        self.comparison = comparison;
+        self
+    }
+
+    /// An image as the loss sees it: through [`Objective::comparison`].
+    #[must_use]
+    pub fn compared(&self, image: &Image) -> Vec<f64> {
+        if self.comparison.is_identity() {
+            return image.data.clone();
+        }
+        self.comparison.apply(&image.data, image.nz, image.nx)
+    }
+
+    /// The loss of two images of the same grid through the comparison: `a`
+    /// in the place of the simulation, `b` in the reference's (the noise level
+    /// compares a simulation with another seed's).
+    #[must_use]
+    pub fn loss_between(&self, a: &Image, b: &Image) -> f64 {
+        self.loss.value(&self.compared(a), &self.compared(b))
+    }
+
+    /// The reference through the comparison.
+    fn compared_reference(&self, nz: usize, nx: usize) -> Vec<f64> {
+        if self.comparison.is_identity() {
+            return self.reference.clone();
+        }
+        self.comparison.apply(&self.reference, nz, nx)
+    }
+
+    /// The loss of `image` (and, for a paired loss, of the second seed's
+    /// `paired`) against the reference, both through the comparison.
+    fn image_loss(&self, image: &Image, paired: Option<&Image>) -> f64 {
+        let reference = self.compared_reference(image.nz, image.nx);
+        match paired {
+            None => self.loss.value(&self.compared(image), &reference),
+            Some(b) => self
+                .loss
+                .paired_value(&self.compared(image), &self.compared(b), &reference),
+        }
+    }
+
+    /// [`Objective::image_loss`] with `∂L/∂I` of each image (the second is
+    /// empty without a paired image), pulled back through the comparison.
+    fn image_loss_and_gradient(
+        &self,
+        image: &Image,
+        paired: Option<&Image>,
+    ) -> (f64, Vec<f64>, Vec<f64>) {
+        let (nz, nx) = (image.nz, image.nx);
+        let reference = self.compared_reference(nz, nx);
+        let a = self.compared(image);
+        let mut d_a = vec![0.0; a.len()];
+        let (loss, d_b) = match paired {
+            None => (
+                self.loss.value_and_gradient(&a, &reference, &mut d_a),
+                Vec::new(),
+            ),
+            Some(b_image) => {
+                let b = self.compared(b_image);
+                let mut d_b = vec![0.0; b.len()];
+                let l = self
+                    .loss
+                    .paired_value_and_gradient(&a, &b, &reference, &mut d_a, &mut d_b);
+                (l, d_b)
+            }
+        };
+        if self.comparison.is_identity() {
+            return (loss, d_a, d_b);
+        }
+        let d_a = self.comparison.pullback(&image.data, nz, nx, &d_a);
+        let d_b = match paired {
+            Some(b_image) => self.comparison.pullback(&b_image.data, nz, nx, &d_b),
+            None => d_b,
+        };
+        (loss, d_a, d_b)
     }
 
     /// Sets [`Objective::paired_seed`] to the render seed plus
@@ -520,11 +596,10 @@ impl Objective {
             let op = BMode::new(&scene.imaging_settings(), &meta, ch.n_samples)?;
             let img = op.forward(ch, ws)?;
             Ok(match paired {
-                None => self.loss.value(&img.data, &self.reference),
+                None => self.image_loss(&img, None),
                 Some(b) => {
                     let img_b = op.forward(b, ws)?;
-                    self.loss
-                        .paired_value(&img.data, &img_b.data, &self.reference)
+                    self.image_loss(&img, Some(&img_b))
                 }
             })
         };

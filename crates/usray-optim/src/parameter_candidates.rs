@@ -9,7 +9,9 @@
 //! roughness already switched on — either way from the scene's value, which is
 //! its null.
 
-use crate::diagnose::{Candidate, EFFECT_LEARNING_RATE};
+use crate::diagnose::{
+    wall_echo_width_m, wall_learning_rate, wall_onsets, Candidate, EFFECT_LEARNING_RATE,
+};
 use usray_transport::Scene;
 
 /// Relative half-width of the range of a sound speed or centre frequency
@@ -72,15 +74,12 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candida
         // As the structural wall (`catalogue`): the loss's basin is about one
         // echo width `Δt = c_wall·cycles/(2 f_c)` wide, so the onsets are the
         // scene's wall and walls one echo width apart across the radius.
-        let dt = m.sound_speed_m_s * scene.probe.cycles / (2.0 * f_c);
+        let dt = wall_echo_width_m(scene, m);
         let range = ((0.25 * lambda).min(0.5 * t), 0.95 * r);
-        let across: Vec<f64> = (0..)
-            .map(|k| (k as f64 + 0.5) * dt)
-            .take_while(|x| *x < range.1)
-            .filter(|x| (x - t).abs() > 0.5 * dt)
-            .collect();
+        let mut across = wall_onsets(dt, range.1);
+        across.retain(|x| (x - t).abs() > 0.5 * dt);
         let mut c = two_sided("wall_thickness", path, t, range, &across);
-        c.learning_rate = (0.25 * dt / (range.1 - range.0)).min(EFFECT_LEARNING_RATE);
+        c.learning_rate = wall_learning_rate(dt, range);
         out.push(c);
     }
     let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();

@@ -33,6 +33,10 @@ pub struct DiagnoseArgs {
     pub budget_s: Option<f64>,
     /// Rounds of the compound-gap diagnosis, at least 1.
     pub rounds: usize,
+    /// Smoothing of the comparison, wavelengths (`DiagnoseOptions::smoothing_wavelengths`).
+    pub smoothing_wavelengths: f64,
+    /// Floor the images at the measurement's noise level.
+    pub noise_floor: bool,
 }
 
 /// Runs the diagnosis and writes `diagnosis.json`, `report.md` and the images.
@@ -40,12 +44,12 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
     let scene = Scene::load(scene_path)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
     anyhow::ensure!(args.rounds >= 1, "--rounds must be at least 1");
-    if let Some(b) = args.budget_s {
-        anyhow::ensure!(
-            b.is_finite() && b > 0.0,
-            "--budget must be a positive number of seconds, found {b}"
-        );
-    }
+    anyhow::ensure!(
+        args.smoothing_wavelengths.is_finite()
+            && (0.0..=10.0).contains(&args.smoothing_wavelengths),
+        "--smoothing must be between 0 and 10 wavelengths, got {}",
+        args.smoothing_wavelengths
+    );
     anyhow::ensure!(
         args.held_out_seeds >= 1,
         "--held-out-seeds must be at least 1"
@@ -74,6 +78,8 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         held_out_measured,
         render: args.sampling.render_options(common.threads)?,
         budget_s: args.budget_s,
+        smoothing_wavelengths: args.smoothing_wavelengths,
+        noise_floor: args.noise_floor,
         ..Default::default()
     };
     let out = OutDir::create(&common.out)?;
@@ -156,6 +162,31 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
     Ok(())
 }
 
+/// How the report's losses compared the images: the smoothing in mm and the
+/// noise floor in grey levels and dB below the top of the dynamic range.
+fn comparison_sentence(d: &Diagnosis, scene: &Scene) -> String {
+    let c = &d.comparison;
+    let pixel_mm = 1e3 * scene.imaging.pixel_m;
+    let smoothing = if c.sigma_z_px > 0.0 {
+        format!(
+            "after smoothing both by a Gaussian of σ = {:.3} mm (`--smoothing`), so that speckle and noise average out",
+            c.sigma_z_px * pixel_mm
+        )
+    } else {
+        "pixel by pixel".to_string()
+    };
+    let floor = if c.floor > 0.0 {
+        format!(
+            ", and floored at grey {:.3} ({:.1} dB): the measurement's noise level where the calibrated model's image is empty (`usray_optim::noise_floor`; `--no-floor` leaves it out), below which a difference is no evidence",
+            c.floor,
+            -(1.0 - c.floor) * scene.imaging.dynamic_range_db
+        )
+    } else {
+        ", with no noise floor (none found where the model is empty, or `--no-floor`)".to_string()
+    };
+    format!("Every loss after the calibration compares the images {smoothing}{floor}.")
+}
+
 /// The refitted effect a diagnosis's verdict names, if any.
 fn named_effect(d: &Diagnosis) -> Option<&usray_optim::EffectResult> {
     let path = d.verdict.path.as_ref()?;
@@ -194,18 +225,13 @@ fn report(
         }
         e => {
             writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {:+.0}%.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, -100.0 * d.null_refit.shrink)?;
-            if let Some(g) = d
-                .effects
-                .iter()
-                .find(|x| x.effect == e && x.shrink == Some(d.verdict.shrink))
-                .and_then(|x| x.gap_explained)
-            {
+            if let Some(g) = named_effect(d).and_then(|x| x.gap_explained) {
                 writeln!(r, "It removes {:.0}% of the gap above the Monte Carlo noise level ({:.4e}).", 100.0 * g, d.noise_loss)?;
             }
             writeln!(r)?
         }
     }
-    if ["none", "unexplained", "inconclusive"].contains(&d.verdict.effect.as_str()) {
+    if !usray_optim::names_an_effect(&d.verdict.effect) {
         let limits: Vec<String> = d
             .effects
             .iter()
@@ -228,12 +254,7 @@ fn report(
             writeln!(r, "**What these data cannot rule out.** Within its limit of detection — {:.0} Monte Carlo spreads of its refitted value from its null — an effect cannot be told from its absence by its parameter, so one weaker than this could be present: {}. These limits are lower bounds: the spreads count Monte Carlo noise only, and a value found beyond its limit is not thereby an effect (the held-out loss decides that).\n", usray_optim::DETECTION_LIMIT_SPREADS, limits.join("; "))?;
         }
     }
-    if let Some(named) = d
-        .effects
-        .iter()
-        .find(|e| e.effect == d.verdict.effect && e.shrink == Some(d.verdict.shrink))
-        .filter(|e| e.at_range_bound())
-    {
+    if let Some(named) = named_effect(d).filter(|e| e.at_range_bound()) {
         writeln!(r, "**At the bound of its range:** the refit left `{}` at {:.4e}, the edge of the range [{:.4e}, {:.4e}] it may take; the data may want a stronger effect than the range allows, so this value is a limit, not an estimate.\n", named.path, named.params[&named.path], named.range[0], named.range[1])?;
     }
     if !d.verdict.alternatives.is_empty() {
@@ -275,6 +296,7 @@ fn report(
             ""
         }
     )?;
+    writeln!(r, "{}\n", comparison_sentence(d, base))?;
     if d.held_out_frames {
         writeln!(r, "Every held-out loss (the calibrated model's, each refit's, the null refit's) is measured against measured frames held out from the fit (`--held-out-frames` or `--held-out-measured`), so a refit that fits the fitted frames' own noise gains nothing there.\n")?;
     }

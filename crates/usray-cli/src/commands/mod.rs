@@ -74,6 +74,8 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             held_out_frames,
             budget,
             rounds,
+            smoothing,
+            no_floor,
             common,
         } => diagnose::run(
             scene,
@@ -89,6 +91,8 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
                 held_out_frames: *held_out_frames,
                 budget_s: *budget,
                 rounds: *rounds,
+                smoothing_wavelengths: *smoothing,
+                noise_floor: !*no_floor,
             },
             common,
         ),

@@ -572,7 +572,8 @@ pub mod limits {
         }
         // Samples per record from the record's duration (render.rs), in
         // floating point: a huge product must not wrap.
-        let per_record = crate::render::record_duration_s(s) * a.sampling_frequency_hz;
+        let duration_s = crate::render::record_duration_s(s);
+        let per_record = duration_s * a.sampling_frequency_hz;
         let total = per_record * p.n_elements as f64 * a.angles_deg.len() as f64;
         if total.is_nan() || total > MAX_CHANNEL_SAMPLES {
             return over(
@@ -581,7 +582,7 @@ pub mod limits {
                     "{total:.3e} channel samples ({} transmits × {} elements × {per_record:.3e} samples per record of {:.3e} s at {} Hz, with max_depth_m, probe.cycles and probe.center_frequency_hz)",
                     a.angles_deg.len(),
                     p.n_elements,
-                    crate::render::record_duration_s(s),
+                    duration_s,
                     a.sampling_frequency_hz
                 ),
                 format!("{MAX_CHANNEL_SAMPLES:.1e}"),
