@@ -110,6 +110,13 @@ pub enum Command {
         /// Stem of the written files (default: the input's stem).
         #[arg(long)]
         name: Option<String>,
+        /// Element pitch in metres, for files that do not store it (full-matrix
+        /// capture: `ArraySteelPins.mat` needs `--pitch 1e-3`).
+        #[arg(long, value_name = "METRES")]
+        pitch: Option<f64>,
+        /// Centre frequency in Hz, for files that do not store it.
+        #[arg(long, value_name = "HZ")]
+        fc: Option<f64>,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

@@ -327,13 +327,14 @@ pub fn import_mat(path: impl AsRef<Path>) -> Result<ChannelData> {
     import_mat_with(path, &ImportOptions::default())
 }
 
-/// What a `.mat` file may not store, supplied by the user. Values present in the
-/// file win over these only where noted.
+/// What a `.mat` file may not store, or stores wrongly, supplied by the user:
+/// a value given here wins over the file's (and is recorded in the output's
+/// `source.overrides`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImportOptions {
     /// Element pitch, m (full-matrix-capture files do not store it).
     pub pitch_m: Option<f64>,
-    /// Centre frequency, Hz, used when the file has no `fc`.
+    /// Centre frequency, Hz (full-matrix-capture files may not store it).
     pub center_frequency_hz: Option<f64>,
 }
 
@@ -379,8 +380,16 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
             Err(err(format!("`param.{f}` = {v} is not finite")))
         }
     };
-    let (fs, fc, c, t0) = (num("fs")?, num("fc")?, num("c")?, num("t0")?);
-    let (pitch, width, ne) = (num("pitch")?, num("width")?, num("Nelements")?);
+    let fc = match options.center_frequency_hz {
+        Some(f) => f,
+        None => num("fc")?,
+    };
+    let pitch = match options.pitch_m {
+        Some(p) => p,
+        None => num("pitch")?,
+    };
+    let (fs, c, t0) = (num("fs")?, num("c")?, num("t0")?);
+    let (width, ne) = (num("width")?, num("Nelements")?);
     for (n, v) in [
         ("fs", fs),
         ("fc", fc),
@@ -451,6 +460,7 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
             "file": path.file_name().map(|f| f.to_string_lossy().into_owned()),
             "layout": "Verasonics plane-wave (param struct + RF(time, element, frame))",
             "clock": "TXdelay all zero: t0_s = param.t0",
+            "overrides": overrides(options),
         }),
     );
     // Each frame of `RF` is a separate acquisition (e.g. PWI_disk.mat: a rotating
@@ -490,6 +500,18 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
     })
 }
 
+/// The values `options` set, as the output's `source.overrides` records them.
+fn overrides(options: &ImportOptions) -> serde_json::Value {
+    let mut m = serde_json::Map::new();
+    if let Some(p) = options.pitch_m {
+        m.insert("pitch_m".into(), p.into());
+    }
+    if let Some(f) = options.center_frequency_hz {
+        m.insert("center_frequency_hz".into(), f.into());
+    }
+    serde_json::Value::Object(m)
+}
+
 fn import_fmc(path: &Path, vars: &MatFile, options: &ImportOptions) -> Result<ChannelData> {
     let err = |w: String| SignalError::format(path, w);
     let scalar = |name: &str| -> Result<f64> {
@@ -506,14 +528,14 @@ fn import_fmc(path: &Path, vars: &MatFile, options: &ImportOptions) -> Result<Ch
     let t0 = scalar("MWB")? / 1e6; // stored in µs
     let c = scalar("cp")?;
     let ne = scalar("nTotElem")? as usize;
-    let fc = match get(vars, "fc").and_then(|v| v.scalar()) {
-        Some(f) => f,
-        None => options.center_frequency_hz.ok_or_else(|| {
-            err("full-matrix capture: no `fc` in the file; pass the centre frequency (ImportOptions::center_frequency_hz)".into())
-        })?,
-    };
+    let fc = options
+        .center_frequency_hz
+        .or_else(|| get(vars, "fc").and_then(|v| v.scalar()))
+        .ok_or_else(|| {
+            err("full-matrix capture: no `fc` in the file; pass the centre frequency (`usray import --fc HZ`, or ImportOptions::center_frequency_hz)".into())
+        })?;
     let pitch = options.pitch_m.ok_or_else(|| {
-        err("full-matrix capture: the element pitch is not stored in the file; pass it (ImportOptions::pitch_m)".into())
+        err("full-matrix capture: the element pitch is not stored in the file; pass it (`usray import --pitch METRES`, or ImportOptions::pitch_m)".into())
     })?;
     if !(fs > 0.0 && c > 0.0 && fc > 0.0 && pitch > 0.0 && ne > 0) {
         return Err(err(format!("full-matrix capture: non-positive fs {fs}, cp {c}, fc {fc}, pitch {pitch} or nTotElem {ne}")));
@@ -564,6 +586,7 @@ fn import_fmc(path: &Path, vars: &MatFile, options: &ImportOptions) -> Result<Ch
             "file": path.file_name().map(|f| f.to_string_lossy().into_owned()),
             "layout": "full-matrix capture data{k}(time, rx), summed over k to a 0-degree plane wave",
             "clock": "t0_s = MWB; the transducer's pulse-centre delay is unknown and not corrected",
+            "overrides": overrides(options),
             "width_note": "element width not stored: set to the pitch",
             "pitch_source": "user-supplied (not stored in the file)",
         }),

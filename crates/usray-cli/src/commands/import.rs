@@ -4,10 +4,27 @@ use crate::cli::Common;
 use crate::output::OutDir;
 use anyhow::{Context, Result};
 use std::path::Path;
-use usray_signal::{import_mat, write_channels};
+use usray_signal::{import_mat_with, write_channels, ImportOptions};
 
-/// Converts `file` and writes `NAME.npy`/`NAME.json` into `common.out`.
-pub fn run(file: &Path, name: Option<&str>, common: &Common) -> Result<()> {
+/// Converts `file` and writes `NAME.npy`/`NAME.json` into `common.out`, with
+/// `options` supplying what the file does not store.
+pub fn run(
+    file: &Path,
+    name: Option<&str>,
+    options: &ImportOptions,
+    common: &Common,
+) -> Result<()> {
+    for (flag, v) in [
+        ("--pitch", options.pitch_m),
+        ("--fc", options.center_frequency_hz),
+    ] {
+        if let Some(v) = v {
+            anyhow::ensure!(
+                v.is_finite() && v > 0.0,
+                "{flag} must be a positive number, got {v}"
+            );
+        }
+    }
     let is_mat = file
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
@@ -16,7 +33,7 @@ pub fn run(file: &Path, name: Option<&str>, common: &Common) -> Result<()> {
         "{}: only MATLAB .mat files (Verasonics-style) can be imported so far",
         file.display()
     );
-    let data = import_mat(file)?;
+    let data = import_mat_with(file, options)?;
     let stem = match name {
         Some(n) => n.to_string(),
         None => file

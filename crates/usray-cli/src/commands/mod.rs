@@ -27,7 +27,21 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             scene,
             common,
         } => beamform::run(channels, scene, common),
-        Command::Import { file, name, common } => import::run(file, name.as_deref(), common),
+        Command::Import {
+            file,
+            name,
+            pitch,
+            fc,
+            common,
+        } => import::run(
+            file,
+            name.as_deref(),
+            &usray_signal::ImportOptions {
+                pitch_m: *pitch,
+                center_frequency_hz: *fc,
+            },
+            common,
+        ),
         Command::Params { scene, common } => params::run(scene, &common.out),
         Command::Demo { common } => demo::run(common),
         Command::Grad {
