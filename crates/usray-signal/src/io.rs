@@ -11,7 +11,8 @@ use crate::error::{Result, SignalError};
 
 /// Write `path` atomically: `write` fills a temporary file in the same directory,
 /// which is flushed, synced and renamed onto `path` only if `write` succeeded. On
-/// any error the temporary file is removed and `path` is untouched.
+/// any error the temporary file is removed and `path` is untouched. The file gets
+/// the mode any new file gets under the process's umask (0644 under umask 022).
 ///
 /// ```
 /// let dir = tempfile::tempdir().unwrap();
@@ -35,8 +36,13 @@ where
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let tmp = tempfile::Builder::new()
-        .prefix(".usray-tmp-")
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".usray-tmp-");
+    // A temporary file is private (0600) by default; ask for 0666 so the file
+    // that is renamed into place has the mode the user's umask gives any new file.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let tmp = builder
         .tempfile_in(&dir)
         .map_err(|e| SignalError::io(path, e))?;
     {

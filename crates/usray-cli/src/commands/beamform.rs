@@ -13,6 +13,7 @@ pub fn run(channels: &Path, scene: &Path, common: &Common) -> Result<()> {
     let data = read_channels(channels)?;
     let out = OutDir::create(&common.out)?;
     let (nz, nx) = super::render::beamform_to(&scene, &data, &out)?;
+    out.finish()?;
     eprintln!(
         "usray beamform: {} transmits × {} elements × {} samples → B-mode {nz}×{nx}; wrote bmode.npy and bmode.png to {}",
         data.n_transmits(),

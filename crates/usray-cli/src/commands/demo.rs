@@ -171,6 +171,7 @@ pub fn run(common: &Common) -> Result<()> {
     writeln!(r, "\nHow to read this check. The AD gradient is the exact derivative of the fixed-seed realisation: every continuous step of every path is differentiated, the sampled microfacet normals and MIS weights included, and paths split at interfaces instead of choosing reflection or transmission with a parameter-dependent probability. At small steps the finite differences agree with it to round-off. At large steps they also see what the gradient by definition does not: visibility changes (a ray moving across an element edge or a surface's silhouette), which make the loss jump, plus the usual truncation error. Since the estimator is unbiased for every parameter value and smooth in it, the same derivative is an unbiased estimate of the derivative of the expected image.\n")?;
     writeln!(r, "## Files\n\n`fit.json` (history: loss and every parameter per iteration; final), `fitted.toml` (the scene with the fitted values), `grad.json`, the images and plots above.")?;
     out.write_text("report.md", &r)?;
+    out.finish()?;
     eprintln!(
         "usray demo: loss ×{:.1} lower in {} iterations, {:.1} s; radius {:.4} mm (true {:.4}), impedance {:.4} (true {:.4}), roughness {:.4} (true {:.4}); wrote report.md and figures to {}",
         l0 / result.final_loss,

@@ -144,6 +144,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
             scale_after,
         )?,
     )?;
+    out.finish()?;
     let named: Vec<&str> = rounds.iter().map(|r| r.verdict.effect.as_str()).collect();
     eprintln!(
         "usray diagnose: verdict {} (held-out shrink {:.2}){}; simulation noise {:.0}% of the gap at {} rays; {:.1} s; wrote diagnosis.json, report.md and images to {}",

@@ -42,6 +42,7 @@ pub fn run(
     };
     let out = OutDir::create(&common.out)?;
     let r = run_fit(&mut objective, &options, &out, common.quiet)?;
+    out.finish()?;
     eprintln!(
         "usray fit: loss {:.4e} → {:.4e} (×{:.1} lower) in {} iterations, {:.1} s; wrote fit.json, fitted.toml, images and plots to {}",
         r.history[0].loss,

@@ -19,6 +19,7 @@ pub fn run(
 ) -> Result<()> {
     let objective = build_objective(scene, reference, params, sampling, common.threads)?;
     let at = objective.initial_physical();
+    let out = OutDir::create(&common.out)?;
     let bar = spinner(common.quiet, "loss and gradient");
     let eval = objective.value_and_gradient(&at)?;
     bar.finish_and_clear();
@@ -33,7 +34,6 @@ pub fn run(
     } else {
         None
     };
-    let out = OutDir::create(&common.out)?;
     if let Some(s) = &sweeps {
         write_sweep_plots(&out, &objective.specs, &eval.gradient, s)?;
     }
@@ -46,6 +46,7 @@ pub fn run(
             sweeps.as_deref(),
         ),
     )?;
+    out.finish()?;
     eprintln!("usray grad: loss {:.6e}", eval.loss);
     for (j, s) in objective.specs.iter().enumerate() {
         let g = eval.gradient[j];

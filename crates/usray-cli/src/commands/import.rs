@@ -43,8 +43,9 @@ pub fn run(
             .into_owned(),
     };
     let out = OutDir::create(&common.out)?;
-    let json = out.path(&format!("{stem}.json"));
-    write_channels(&json, &data)?;
+    write_channels(out.path(&format!("{stem}.json")), &data)?;
+    out.finish()?;
+    let json = common.out.join(format!("{stem}.json"));
     eprintln!(
         "usray import: {} → {} ({} transmits × {} elements × {} samples, fs {:.4e} Hz, t0 {:.4e} s on the CONTRACT §1 clock)",
         file.display(),

@@ -13,7 +13,9 @@ pub fn run(scene: &Path, out: &Path) -> Result<()> {
         .iter()
         .map(|(p, v)| format!("{p} = {v}\n"))
         .collect();
+    let out = OutDir::create(out)?;
+    out.write_text("params.txt", &text)?;
+    out.finish()?;
     print!("{text}");
-    OutDir::create(out)?.write_text("params.txt", &text)?;
     Ok(())
 }

@@ -13,6 +13,14 @@ pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()
     let scene = Scene::load(scene_path)?;
     let opts = sampling.render_options(common.threads)?;
     let out = OutDir::create(&common.out)?;
+    // The beamformer's set-up is checked before the trace, so a bad imaging grid
+    // fails at once rather than after it.
+    BMode::new(
+        &scene.imaging_settings(),
+        &render::channel_meta(&scene),
+        render::sample_grid(&scene).0,
+    )
+    .context("setting up the beamformer from the scene's [imaging]")?;
     let bar = spinner(common.quiet, &format!("tracing {}", scene_path.display()));
     let (channels, stats) = render(&scene, &opts)?;
     bar.finish_and_clear();
@@ -31,6 +39,7 @@ pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()
         "bmode_shape": [bmode.0, bmode.1],
     });
     out.write_json("render.json", &info)?;
+    out.finish()?;
     eprintln!(
         "usray render: traced {} rays in {:.2} s ({:.3e} rays/s); wrote channels, bmode.npy/.png and render.json to {}",
         stats.rays_traced,
