@@ -13,6 +13,20 @@ pub const CHANNELS_FORMAT: &str = "usray-channels/1";
 /// [`ChannelMeta::frames`].
 pub const FRAME_KEY: &str = "frame";
 
+/// The physical ranges [`ChannelMeta::validate`] accepts.
+pub mod limits {
+    /// Sampling and centre frequencies, Hz: `(1 kHz, 10 GHz]`.
+    pub const FREQUENCY_HZ: (f64, f64) = (1e3, 1e10);
+    /// Sound speed, m/s: `(100, 20 000]` (gases to the fastest solids).
+    pub const SOUND_SPEED_M_S: (f64, f64) = (100.0, 20_000.0);
+    /// Element pitch, m: `(0, 10 mm]`.
+    pub const PITCH_M: (f64, f64) = (0.0, 0.01);
+    /// Largest `|t0_s|`, s.
+    pub const MAX_ABS_T0_S: f64 = 1.0;
+    /// Largest `probe.n_elements` (as a scene's `probe.n_elements`).
+    pub const MAX_ELEMENTS: usize = 4096;
+}
+
 /// Probe description carried by channel data (CONTRACT §2 `probe`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ProbeMeta {
@@ -129,6 +143,95 @@ impl ChannelMeta {
         Ok(groups)
     }
 
+    /// Checks every field against its physical range ([`limits`]): the format
+    /// tag, positive finite frequencies, speed and pitch, a width in
+    /// `(0, pitch]`, a known probe kind (`"linear"`) and transmit kind
+    /// (`"plane_wave"`), angles inside ±90°, finite times of sample 0, and
+    /// consistent frame tags. The error names the field.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.format != CHANNELS_FORMAT {
+            return Err(format!(
+                "`format` is {:?}, expected {CHANNELS_FORMAT:?}",
+                self.format
+            ));
+        }
+        let in_range = |name: &str, v: f64, (lo, hi): (f64, f64)| {
+            if v.is_finite() && v > lo && v <= hi {
+                Ok(())
+            } else {
+                Err(format!("`{name}` must lie in ({lo:e}, {hi:e}], got {v}"))
+            }
+        };
+        in_range(
+            "sampling_frequency_hz",
+            self.sampling_frequency_hz,
+            limits::FREQUENCY_HZ,
+        )?;
+        in_range(
+            "center_frequency_hz",
+            self.center_frequency_hz,
+            limits::FREQUENCY_HZ,
+        )?;
+        in_range(
+            "sound_speed_m_s",
+            self.sound_speed_m_s,
+            limits::SOUND_SPEED_M_S,
+        )?;
+        in_range("probe.pitch_m", self.probe.pitch_m, limits::PITCH_M)?;
+        in_range(
+            "probe.element_width_m",
+            self.probe.element_width_m,
+            (0.0, self.probe.pitch_m),
+        )?;
+        if !(self.t0_s.is_finite() && self.t0_s.abs() <= limits::MAX_ABS_T0_S) {
+            return Err(format!(
+                "`t0_s` must be finite and within ±{} s, got {}",
+                limits::MAX_ABS_T0_S,
+                self.t0_s
+            ));
+        }
+        if self.probe.kind != "linear" {
+            return Err(format!(
+                "`probe.kind` is {:?}; only \"linear\" is supported",
+                self.probe.kind
+            ));
+        }
+        if !(1..=limits::MAX_ELEMENTS).contains(&self.probe.n_elements) {
+            return Err(format!(
+                "`probe.n_elements` must lie in 1..={}, got {}",
+                limits::MAX_ELEMENTS,
+                self.probe.n_elements
+            ));
+        }
+        if self.transmits.is_empty() {
+            return Err("`transmits` is empty".into());
+        }
+        for (i, t) in self.transmits.iter().enumerate() {
+            if t.kind != "plane_wave" {
+                return Err(format!(
+                    "transmits[{i}].kind is {:?}; only \"plane_wave\" is supported",
+                    t.kind
+                ));
+            }
+            if !(t.angle_rad.is_finite() && t.angle_rad.abs() < std::f64::consts::FRAC_PI_2) {
+                return Err(format!(
+                    "transmits[{i}].angle_rad must be finite and inside ±π/2, got {}",
+                    t.angle_rad
+                ));
+            }
+            if let Some(t0) = t.t0_s {
+                if !(t0.is_finite() && t0.abs() <= limits::MAX_ABS_T0_S) {
+                    return Err(format!(
+                        "transmits[{i}].t0_s must be finite and within ±{} s, got {t0}",
+                        limits::MAX_ABS_T0_S
+                    ));
+                }
+            }
+        }
+        self.frames()?;
+        Ok(())
+    }
+
     /// Time of sample 0 for transmit `tx`, seconds: the transmit's own `t0_s` if
     /// it has one, else the global one.
     pub fn t0_for(&self, tx: usize) -> f64 {
@@ -154,6 +257,25 @@ impl ChannelData {
     /// `(n_transmits, n_elements, n_samples)` as the metadata and `n_samples` say.
     pub fn shape(&self) -> (usize, usize, usize) {
         (self.n_transmits(), self.n_elements(), self.n_samples)
+    }
+    /// Checks the metadata ([`ChannelMeta::validate`]), at least one sample per
+    /// record, and that the samples fill the shape and are finite.
+    pub fn validate(&self) -> Result<(), String> {
+        self.meta.validate()?;
+        if self.n_samples == 0 {
+            return Err("the records hold no samples".into());
+        }
+        let expect = self.n_transmits() * self.n_elements() * self.n_samples;
+        if self.samples.len() != expect {
+            return Err(format!(
+                "channel data holds {} samples, its shape needs {expect}",
+                self.samples.len()
+            ));
+        }
+        if let Some(i) = self.samples.iter().position(|v| !v.is_finite()) {
+            return Err(format!("sample {i} is not finite"));
+        }
+        Ok(())
     }
     /// Number of transmits (`meta.transmits.len()`).
     pub fn n_transmits(&self) -> usize {

@@ -6,7 +6,7 @@ use std::fs::File;
 use std::io::{BufReader, BufWriter, Read, Write};
 use std::path::{Path, PathBuf};
 
-use crate::channels::{ChannelData, ChannelMeta, CHANNELS_FORMAT};
+use crate::channels::{ChannelData, ChannelMeta};
 use crate::error::{Result, SignalError};
 
 /// Write `path` atomically: `write` fills a temporary file in the same directory,
@@ -237,9 +237,12 @@ pub fn read_channels(path: impl AsRef<Path>) -> Result<ChannelData> {
             return Err(SignalError::format(&jpath, format!("missing key `{key}`")));
         }
     }
-    let meta: ChannelMeta = serde_json::from_value(value.clone())
-        .map_err(|e| SignalError::format(&jpath, format!("bad channel metadata: {e}")))?;
-    validate_meta(&meta).map_err(|w| SignalError::format(&jpath, w))?;
+    let meta: ChannelMeta = serde_json::from_value(value.clone()).map_err(|e| {
+        let at = bad_field(&value).map_or(String::new(), |k| format!(" at `{k}`"));
+        SignalError::format(&jpath, format!("bad channel metadata{at}: {e}"))
+    })?;
+    meta.validate()
+        .map_err(|w| SignalError::format(&jpath, w))?;
     let arr = read_npy(&npath)?;
     let want = [meta.transmits.len(), meta.probe.n_elements];
     if arr.shape.len() != 3 || arr.shape[0] != want[0] || arr.shape[1] != want[1] {
@@ -254,6 +257,12 @@ pub fn read_channels(path: impl AsRef<Path>) -> Result<ChannelData> {
             ),
         ));
     }
+    if arr.shape[2] == 0 {
+        return Err(SignalError::format(
+            &npath,
+            "the records hold no samples (n_samples = 0)",
+        ));
+    }
     Ok(ChannelData {
         meta,
         n_samples: arr.shape[2],
@@ -261,60 +270,52 @@ pub fn read_channels(path: impl AsRef<Path>) -> Result<ChannelData> {
     })
 }
 
-fn validate_meta(m: &ChannelMeta) -> std::result::Result<(), String> {
-    if m.format != CHANNELS_FORMAT {
-        return Err(format!(
-            "`format` is {:?}, expected {CHANNELS_FORMAT:?}",
-            m.format
-        ));
+/// The first sidecar key whose value does not have its type (serde_json's
+/// message names the type, not the key).
+fn bad_field(v: &serde_json::Value) -> Option<String> {
+    use serde_json::from_value as de;
+    let number = |v: &serde_json::Value| de::<f64>(v.clone()).is_err();
+    for k in [
+        "sampling_frequency_hz",
+        "t0_s",
+        "sound_speed_m_s",
+        "center_frequency_hz",
+    ] {
+        if number(&v[k]) {
+            return Some(k.into());
+        }
     }
-    let pos = |name: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
-            Ok(())
+    let probe = &v["probe"];
+    if de::<usize>(probe["n_elements"].clone()).is_err() {
+        return Some("probe.n_elements".into());
+    }
+    for k in ["pitch_m", "element_width_m"] {
+        if number(&probe[k]) {
+            return Some(format!("probe.{k}"));
+        }
+    }
+    if de::<String>(probe["kind"].clone()).is_err() {
+        return Some("probe.kind".into());
+    }
+    let transmits = v["transmits"].as_array()?;
+    transmits.iter().enumerate().find_map(|(i, t)| {
+        if de::<String>(t["kind"].clone()).is_err() {
+            Some(format!("transmits[{i}].kind"))
+        } else if number(&t["angle_rad"]) {
+            Some(format!("transmits[{i}].angle_rad"))
+        } else if !t["t0_s"].is_null() && number(&t["t0_s"]) {
+            Some(format!("transmits[{i}].t0_s"))
         } else {
-            Err(format!("`{name}` must be positive and finite, got {v}"))
+            None
         }
-    };
-    pos("sampling_frequency_hz", m.sampling_frequency_hz)?;
-    pos("sound_speed_m_s", m.sound_speed_m_s)?;
-    pos("center_frequency_hz", m.center_frequency_hz)?;
-    pos("probe.pitch_m", m.probe.pitch_m)?;
-    if !m.t0_s.is_finite() {
-        return Err("`t0_s` must be finite".into());
-    }
-    if m.probe.n_elements == 0 {
-        return Err("`probe.n_elements` must be at least 1".into());
-    }
-    if m.transmits.is_empty() {
-        return Err("`transmits` is empty".into());
-    }
-    for (i, t) in m.transmits.iter().enumerate() {
-        if t.kind != "plane_wave" {
-            return Err(format!(
-                "transmits[{i}].kind is {:?}; only \"plane_wave\" is supported",
-                t.kind
-            ));
-        }
-        if !t.angle_rad.is_finite() || t.t0_s.is_some_and(|v| !v.is_finite()) {
-            return Err(format!("transmits[{i}] has a non-finite angle or t0_s"));
-        }
-    }
-    m.frames()?;
-    Ok(())
+    })
 }
 
 /// Write channel data as `NAME.json` + `NAME.npy` (float32), each atomically.
 /// `path` may be either file or the stem.
 pub fn write_channels(path: impl AsRef<Path>, ch: &ChannelData) -> Result<()> {
     let (jpath, npath) = channel_paths(path);
-    let expect = ch.n_transmits() * ch.n_elements() * ch.n_samples;
-    if ch.samples.len() != expect {
-        return Err(SignalError::Invalid(format!(
-            "channel data holds {} samples, its shape needs {expect}",
-            ch.samples.len()
-        )));
-    }
-    validate_meta(&ch.meta).map_err(SignalError::Invalid)?;
+    ch.validate().map_err(SignalError::Invalid)?;
     write_npy_f32(
         &npath,
         &[ch.n_transmits(), ch.n_elements(), ch.n_samples],

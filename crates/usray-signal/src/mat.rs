@@ -15,6 +15,21 @@ use std::path::Path;
 use crate::channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta, CHANNELS_FORMAT};
 use crate::error::{Result, SignalError};
 
+/// What a `.mat` file may make the reader do, checked before the work: a hostile
+/// or corrupt file (a decompression bomb, cells nested a million deep) gets an
+/// error naming the limit instead of exhausting memory or the stack.
+pub mod limits {
+    /// Largest file read, bytes (256 MiB).
+    pub const MAX_FILE_BYTES: u64 = 256 << 20;
+    /// Largest inflated size of one compressed element, bytes (256 MiB).
+    pub const MAX_INFLATED_BYTES: u64 = 256 << 20;
+    /// Most numbers (and characters) held from one file: 32 Mi values, 256 MiB as
+    /// `f64`.
+    pub const MAX_VALUES: usize = 32 << 20;
+    /// Deepest nesting of cells and structs.
+    pub const MAX_NESTING: usize = 32;
+}
+
 /// A MATLAB value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum MatValue {
@@ -140,7 +155,32 @@ fn numbers(ty: u32, s: &[u8]) -> R<Vec<f64>> {
     })
 }
 
-fn parse_matrix(body: &[u8]) -> R<(String, MatValue)> {
+/// How many values the file may still make the reader hold
+/// ([`limits::MAX_VALUES`] in all).
+struct Budget {
+    values_left: usize,
+}
+
+impl Budget {
+    fn take(&mut self, n: usize, name: &str) -> R<()> {
+        self.values_left = self.values_left.checked_sub(n).ok_or_else(|| {
+            format!(
+                "array `{name}` takes the file past {} values (usray_signal::mat::limits::MAX_VALUES)",
+                limits::MAX_VALUES
+            )
+        })?;
+        Ok(())
+    }
+}
+
+/// One `miMATRIX` element, `depth` levels inside cells and structs.
+fn parse_matrix(body: &[u8], depth: usize, budget: &mut Budget) -> R<(String, MatValue)> {
+    if depth > limits::MAX_NESTING {
+        return Err(format!(
+            "cells or structs nested deeper than {} levels (usray_signal::mat::limits::MAX_NESTING)",
+            limits::MAX_NESTING
+        ));
+    }
     if body.is_empty() {
         return Ok((
             String::new(),
@@ -189,7 +229,7 @@ fn parse_matrix(body: &[u8]) -> R<(String, MatValue)> {
                 if ty != 14 {
                     return Err(format!("cell element has type {ty}, expected miMATRIX"));
                 }
-                cells.push(parse_matrix(s)?.1);
+                cells.push(parse_matrix(s, depth + 1, budget)?.1);
             }
             MatValue::Cell { dims, cells }
         }
@@ -215,7 +255,7 @@ fn parse_matrix(body: &[u8]) -> R<(String, MatValue)> {
                     if ty != 14 {
                         return Err(format!("struct field has type {ty}, expected miMATRIX"));
                     }
-                    vals.push(parse_matrix(s)?.1);
+                    vals.push(parse_matrix(s, depth + 1, budget)?.1);
                 }
                 elems.push(vals);
             }
@@ -227,6 +267,7 @@ fn parse_matrix(body: &[u8]) -> R<(String, MatValue)> {
         }
         4 => {
             let (ty, s) = c.element()?;
+            budget.take(s.len(), &name)?;
             let chars: String = match ty {
                 16 | 1 | 2 => String::from_utf8_lossy(s).into_owned(),
                 _ => numbers(ty, s)?
@@ -237,6 +278,7 @@ fn parse_matrix(body: &[u8]) -> R<(String, MatValue)> {
             MatValue::Char(chars)
         }
         6..=15 => {
+            budget.take(count * if complex { 2 } else { 1 }, &name)?;
             let (ty, s) = c.element()?;
             let re = numbers(ty, s)?;
             let im = if complex {
@@ -261,6 +303,18 @@ fn parse_matrix(body: &[u8]) -> R<(String, MatValue)> {
 /// Read every variable of a MATLAB v5 `.mat` file.
 pub fn read_mat(path: impl AsRef<Path>) -> Result<MatFile> {
     let path = path.as_ref();
+    let size = std::fs::metadata(path)
+        .map_err(|e| SignalError::io(path, e))?
+        .len();
+    if size > limits::MAX_FILE_BYTES {
+        return Err(SignalError::format(
+            path,
+            format!(
+                "{size} bytes is past the limit of {} (usray_signal::mat::limits::MAX_FILE_BYTES)",
+                limits::MAX_FILE_BYTES
+            ),
+        ));
+    }
     let bytes = std::fs::read(path).map_err(|e| SignalError::io(path, e))?;
     parse_mat(&bytes).map_err(|w| SignalError::format(path, w))
 }
@@ -277,6 +331,9 @@ pub fn parse_mat(bytes: &[u8]) -> std::result::Result<MatFile, String> {
         return Err("not a little-endian MAT v5 file (header endian indicator is not 'IM')".into());
     }
     let mut out = Vec::new();
+    let mut budget = Budget {
+        values_left: limits::MAX_VALUES,
+    };
     let mut c = Cur {
         b: &bytes[128..],
         p: 0,
@@ -287,8 +344,15 @@ pub fn parse_mat(bytes: &[u8]) -> std::result::Result<MatFile, String> {
         let (ty, s) = if ty == 15 {
             let mut d = Vec::new();
             flate2::read::ZlibDecoder::new(s)
+                .take(limits::MAX_INFLATED_BYTES + 1)
                 .read_to_end(&mut d)
                 .map_err(|e| format!("corrupt miCOMPRESSED element: {e}"))?;
+            if d.len() as u64 > limits::MAX_INFLATED_BYTES {
+                return Err(format!(
+                    "a compressed element inflates past {} bytes (usray_signal::mat::limits::MAX_INFLATED_BYTES)",
+                    limits::MAX_INFLATED_BYTES
+                ));
+            }
             inflated = d;
             let mut ic = Cur { b: &inflated, p: 0 };
             let (t, s) = ic.element()?;
@@ -297,7 +361,7 @@ pub fn parse_mat(bytes: &[u8]) -> std::result::Result<MatFile, String> {
             (ty, s)
         };
         if ty == 14 {
-            let (name, v) = parse_matrix(s)?;
+            let (name, v) = parse_matrix(s, 0, &mut budget)?;
             out.push((name, v));
         }
     }
@@ -401,6 +465,11 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
             return Err(err(format!("`param.{n}` = {v} must be positive")));
         }
     }
+    if ne.fract() != 0.0 {
+        return Err(err(format!(
+            "`param.Nelements` = {ne} is not a whole number"
+        )));
+    }
     let ne = ne as usize;
     match param.field("TXdelay") {
         Some(MatValue::Numeric { re, .. }) => {
@@ -478,26 +547,41 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
             }
         })
         .collect();
-    Ok(ChannelData {
-        meta: ChannelMeta {
-            format: CHANNELS_FORMAT.into(),
-            sampling_frequency_hz: fs,
-            t0_s: t0,
-            sound_speed_m_s: c,
-            center_frequency_hz: fc,
-            probe: ProbeMeta {
-                kind: "linear".into(),
-                n_elements: ne,
-                pitch_m: pitch,
-                element_width_m: width,
-                extra: probe_extra,
+    validated(
+        path,
+        ChannelData {
+            meta: ChannelMeta {
+                format: CHANNELS_FORMAT.into(),
+                sampling_frequency_hz: fs,
+                t0_s: t0,
+                sound_speed_m_s: c,
+                center_frequency_hz: fc,
+                probe: ProbeMeta {
+                    kind: "linear".into(),
+                    n_elements: ne,
+                    pitch_m: pitch,
+                    element_width_m: width,
+                    extra: probe_extra,
+                },
+                transmits,
+                extra,
             },
-            transmits,
-            extra,
+            n_samples: ns,
+            samples: re.clone(),
         },
-        n_samples: ns,
-        samples: re.clone(),
-    })
+    )
+}
+
+/// `data` if it passes [`ChannelData::validate`] (every field in its physical
+/// range, samples present and finite), else an error naming `path`.
+fn validated(path: &Path, data: ChannelData) -> Result<ChannelData> {
+    data.validate().map_err(|w| {
+        SignalError::format(
+            path,
+            format!("the imported data are not valid channel data: {w}"),
+        )
+    })?;
+    Ok(data)
 }
 
 /// The values `options` set, as the output's `source.overrides` records them.
@@ -527,7 +611,13 @@ fn import_fmc(path: &Path, vars: &MatFile, options: &ImportOptions) -> Result<Ch
     let fs = scalar("fs")? * 1e6; // stored in MHz
     let t0 = scalar("MWB")? / 1e6; // stored in µs
     let c = scalar("cp")?;
-    let ne = scalar("nTotElem")? as usize;
+    let ne = scalar("nTotElem")?;
+    if ne.fract() != 0.0 || ne < 1.0 {
+        return Err(err(format!(
+            "full-matrix capture: `nTotElem` = {ne} is not a positive whole number"
+        )));
+    }
+    let ne = ne as usize;
     let fc = options
         .center_frequency_hz
         .or_else(|| get(vars, "fc").and_then(|v| v.scalar()))
@@ -591,29 +681,32 @@ fn import_fmc(path: &Path, vars: &MatFile, options: &ImportOptions) -> Result<Ch
             "pitch_source": "user-supplied (not stored in the file)",
         }),
     );
-    Ok(ChannelData {
-        meta: ChannelMeta {
-            format: CHANNELS_FORMAT.into(),
-            sampling_frequency_hz: fs,
-            t0_s: t0,
-            sound_speed_m_s: c,
-            center_frequency_hz: fc,
-            probe: ProbeMeta {
-                kind: "linear".into(),
-                n_elements: ne,
-                pitch_m: pitch,
-                element_width_m: pitch,
-                extra: serde_json::Map::new(),
+    validated(
+        path,
+        ChannelData {
+            meta: ChannelMeta {
+                format: CHANNELS_FORMAT.into(),
+                sampling_frequency_hz: fs,
+                t0_s: t0,
+                sound_speed_m_s: c,
+                center_frequency_hz: fc,
+                probe: ProbeMeta {
+                    kind: "linear".into(),
+                    n_elements: ne,
+                    pitch_m: pitch,
+                    element_width_m: pitch,
+                    extra: serde_json::Map::new(),
+                },
+                transmits: vec![TransmitMeta {
+                    kind: "plane_wave".into(),
+                    angle_rad: 0.0,
+                    t0_s: None,
+                    extra: serde_json::Map::new(),
+                }],
+                extra,
             },
-            transmits: vec![TransmitMeta {
-                kind: "plane_wave".into(),
-                angle_rad: 0.0,
-                t0_s: None,
-                extra: serde_json::Map::new(),
-            }],
-            extra,
+            n_samples: ns,
+            samples: sum,
         },
-        n_samples: ns,
-        samples: sum,
-    })
+    )
 }

@@ -166,8 +166,18 @@ fn nan_samples_are_reported() {
     let dir = tempfile::tempdir().unwrap();
     let mut ch = sample_channels();
     ch.samples[13] = f64::NAN;
-    // Written raw (the writer itself does not check samples).
+    // The writer refuses it …
+    let e = err_text(write_channels(dir.path().join("d.json"), &ch).unwrap_err());
+    assert!(e.contains("13") && e.contains("not finite"), "{e}");
+    assert!(!dir.path().join("d.npy").exists());
+    // … and a file holding one (sample 13 overwritten in place) is refused on reading.
+    ch.samples[13] = 0.0;
     let p = write_pair(dir.path(), &ch);
+    let npy = dir.path().join("d.npy");
+    let mut bytes = std::fs::read(&npy).unwrap();
+    let data_at = 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    bytes[data_at + 13 * 4..data_at + 14 * 4].copy_from_slice(&f32::NAN.to_le_bytes());
+    std::fs::write(&npy, bytes).unwrap();
     let e = err_text(read_channels(&p).unwrap_err());
     assert!(
         e.contains("d.npy") && e.contains("NaN") && e.contains("13"),

@@ -168,3 +168,33 @@ fn sizes_past_the_limits_name_the_key() {
         assert_eq!(e.key, key, "{e}");
     }
 }
+
+/// A fixed-length list with more or fewer numbers than it holds is refused
+/// naming the key (serde's arrays dropped extra numbers silently:
+/// `x_range_m = [-0.01, 0.0, 0.01]` was read as `[-0.01, 0.0]`).
+#[test]
+fn lists_of_the_wrong_length_name_the_key() {
+    for (old, new, key) in [
+        (
+            "x_range_m = [-0.015, 0.015]",
+            "x_range_m = [-0.01, 0.0, 0.01]",
+            "imaging.x_range_m",
+        ),
+        (
+            "z_range_m = [0.002, 0.028]",
+            "z_range_m = [0.002]",
+            "imaging.z_range_m",
+        ),
+        (
+            "center_m = [0.0, 0.0, 0.015]",
+            "center_m = [0.0, 0.0, 0.015, 1.0]",
+            "objects.cylinder.center_m",
+        ),
+    ] {
+        let text = base();
+        assert!(text.contains(old), "{old}");
+        let e = err(&text.replace(old, new));
+        assert_eq!(e.key, key, "{e}");
+        assert!(e.to_string().contains("exactly"), "{e}");
+    }
+}

@@ -147,8 +147,10 @@ impl core::str::FromStr for Sampler {
 #[serde(deny_unknown_fields)]
 pub struct Imaging {
     /// Lateral extent `[x_min, x_max]`, metres.
+    #[serde(deserialize_with = "exact::array")]
     pub x_range_m: [f64; 2],
     /// Depth extent `[z_min, z_max]`, metres.
+    #[serde(deserialize_with = "exact::array")]
     pub z_range_m: [f64; 2],
     /// Pixel size, metres.
     pub pixel_m: f64,
@@ -225,7 +227,7 @@ pub struct Object {
     /// Material name (a key of `[materials]`).
     pub material: String,
     /// Centre / reference point / translation, metres.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact::array")]
     pub center_m: [f64; 3],
     /// Radius (cylinder, sphere), metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -240,13 +242,21 @@ pub struct Object {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub z_bottom_m: Option<f64>,
     /// Outward normal of a plane (half-space).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "exact::option"
+    )]
     pub normal: Option<[f64; 3]>,
     /// Mesh file, relative to the scene file.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub path: Option<String>,
     /// Mesh rotation, Euler angles about x, y, z in degrees.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "exact::option"
+    )]
     pub rotation_deg: Option<[f64; 3]>,
     /// Mesh uniform scale.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -598,5 +608,30 @@ pub mod limits {
             );
         }
         Ok(())
+    }
+}
+
+/// Fixed-length number lists of a scene file (`x_range_m`, `center_m`, …): exactly
+/// `N` numbers. serde's arrays read the first `N` of a longer list and drop the
+/// rest silently (`x_range_m = [-0.01, 0.0, 0.01]` became `[-0.01, 0.0]`).
+mod exact {
+    use serde::de::{Deserialize, Deserializer, Error};
+
+    fn convert<E: Error, const N: usize>(v: Vec<f64>) -> Result<[f64; N], E> {
+        <[f64; N]>::try_from(v.as_slice()).map_err(|_| {
+            E::invalid_length(v.len(), &format!("a list of exactly {N} numbers").as_str())
+        })
+    }
+
+    /// `[f64; N]` from a list of exactly `N` numbers.
+    pub fn array<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
+        convert(Vec::<f64>::deserialize(d)?)
+    }
+
+    /// `Option<[f64; N]>` from a list of exactly `N` numbers.
+    pub fn option<'de, D: Deserializer<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Option<[f64; N]>, D::Error> {
+        Option::<Vec<f64>>::deserialize(d)?.map(convert).transpose()
     }
 }
