@@ -22,7 +22,7 @@ pub struct Cli {
 #[derive(Debug, Clone, Args)]
 pub struct Common {
     /// Directory to write into (created if missing); nothing is written elsewhere.
-    #[arg(long, value_name = "DIR", default_value = "usray-out")]
+    #[arg(long, value_name = "DIR", default_value = crate::output::DEFAULT_OUT)]
     pub out: PathBuf,
     /// Worker threads; 0 uses every core. Results are bit-identical for any value.
     #[arg(long, value_name = "N", default_value_t = 0)]
@@ -180,6 +180,11 @@ pub enum Command {
         /// surface's roughness low at few rays). Twice the renders per iteration.
         #[arg(long)]
         paired: bool,
+        /// Continue the fit killed in DIR (its `--out`) from its checkpoint
+        /// (`fit.checkpoint.json`, written after every iteration), to the same
+        /// results as an uninterrupted run; the other arguments must be the same.
+        #[arg(long, value_name = "DIR")]
+        resume: Option<PathBuf>,
         /// Rays, seed and sampler.
         #[command(flatten)]
         sampling: Sampling,
@@ -261,6 +266,11 @@ pub enum Command {
         /// after the calibration where the model's image is empty).
         #[arg(long)]
         no_floor: bool,
+        /// Continue the diagnosis killed in DIR (its `--out`) from its checkpoint
+        /// (`diagnose.checkpoint.json`: every fit's iterations and the decisions taken on the clock), to the same
+        /// results as an uninterrupted run; the other arguments must be the same.
+        #[arg(long, value_name = "DIR")]
+        resume: Option<PathBuf>,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

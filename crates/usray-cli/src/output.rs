@@ -6,6 +6,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use crate::cli::Common;
+
 /// The output directory of a command, written as a set.
 ///
 /// Every file goes first into a staging folder inside `--out`
@@ -22,6 +24,9 @@ pub struct OutDir {
     lock: PathBuf,
     finished: bool,
 }
+
+/// `--out` when none is given.
+pub const DEFAULT_OUT: &str = "usray-out";
 
 /// Name of the lock file inside an output directory.
 const LOCK_NAME: &str = ".usray.lock";
@@ -57,6 +62,12 @@ impl OutDir {
     /// [`OutDir::finish`]).
     pub fn path(&self, name: &str) -> PathBuf {
         self.staging.join(name)
+    }
+
+    /// The path of a checkpoint `name`, kept in the output directory itself (not
+    /// the staging folder), so that it outlives a killed run.
+    pub fn checkpoint_path(&self, name: &str) -> PathBuf {
+        self.dir.join(name)
     }
 
     /// Moves every staged file into the output directory and releases the lock.
@@ -180,6 +191,56 @@ fn remove_stale(dir: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// `common` with `--out` set to the directory of `--resume DIR`, if given.
+///
+/// # Errors
+/// When `--out` names another directory.
+pub fn resumed(common: &Common, resume: Option<&Path>) -> Result<Common> {
+    let Some(dir) = resume else {
+        return Ok(common.clone());
+    };
+    anyhow::ensure!(
+        common.out == Path::new(DEFAULT_OUT) || common.out == dir,
+        "--resume {} continues the run in that directory; --out {} names another",
+        dir.display(),
+        common.out.display()
+    );
+    Ok(Common {
+        out: dir.to_path_buf(),
+        ..common.clone()
+    })
+}
+
+/// A digest of everything that determines a run's results (scene, data,
+/// options, and this build's version), as its checkpoint records it: a
+/// checkpoint of another problem is refused on `--resume`. `Debug` prints
+/// `f64` in its shortest exact form, so equal inputs give equal digests.
+pub fn fingerprint(parts: &[&dyn std::fmt::Debug]) -> String {
+    use std::hash::Hasher as _;
+    struct Digest(std::collections::hash_map::DefaultHasher);
+    impl std::fmt::Write for Digest {
+        fn write_str(&mut self, s: &str) -> std::fmt::Result {
+            self.0.write(s.as_bytes());
+            Ok(())
+        }
+    }
+    let mut d = Digest(std::collections::hash_map::DefaultHasher::new());
+    let _ = std::fmt::Write::write_fmt(&mut d, format_args!("usray {}", env!("CARGO_PKG_VERSION")));
+    for p in parts {
+        let _ = std::fmt::Write::write_fmt(&mut d, format_args!("\u{1f}{p:?}"));
+    }
+    format!("{:016x}", d.0.finish())
+}
+
+/// Removes a finished run's checkpoint (its results are written).
+pub fn remove_checkpoint(path: &Path) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        Err(e) => Err(e).with_context(|| format!("removing {}", path.display())),
+    }
 }
 
 /// A spinner on stderr for long work (hidden with `--quiet` or when stderr is not

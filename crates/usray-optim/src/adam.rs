@@ -31,6 +31,20 @@ impl Default for AdamGroup {
     }
 }
 
+/// What [`Adam::state`] exports: first and second moments, updates taken, and
+/// the clip norm.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AdamState {
+    /// First moments `m`.
+    pub m: Vec<f64>,
+    /// Second moments `v`.
+    pub v: Vec<f64>,
+    /// Updates taken.
+    pub step: i32,
+    /// The clip norm in force.
+    pub clip_norm: Option<f64>,
+}
+
 /// The Adam optimiser over a state vector whose entries belong to groups.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Adam {
@@ -76,6 +90,36 @@ impl Adam {
             v: vec![0.0; n],
             step: 0,
         }
+    }
+
+    /// The moments, step count and clip norm: what a checkpoint keeps to
+    /// continue the same sequence of updates ([`Adam::restore`]).
+    pub fn state(&self) -> AdamState {
+        AdamState {
+            m: self.m.clone(),
+            v: self.v.clone(),
+            step: self.step,
+            clip_norm: self.clip_norm,
+        }
+    }
+
+    /// Continues from a kept [`AdamState`].
+    ///
+    /// # Errors
+    /// When its length is not this optimiser's.
+    pub fn restore(&mut self, s: &AdamState) -> Result<(), String> {
+        if s.m.len() != self.m.len() || s.v.len() != self.v.len() {
+            return Err(format!(
+                "the kept optimiser state has {} entries, this fit {}",
+                s.m.len(),
+                self.m.len()
+            ));
+        }
+        self.m.clone_from(&s.m);
+        self.v.clone_from(&s.v);
+        self.step = s.step;
+        self.clip_norm = s.clip_norm;
+        Ok(())
     }
 
     /// Number of updates taken so far.

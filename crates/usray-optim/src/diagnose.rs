@@ -97,7 +97,8 @@
 //! the paired loss of the calibrated model against its own seed-`s` image.
 
 use crate::comparison::{noise_floor, Comparison};
-use crate::fit::{fit, FitOptions};
+use crate::fit::{fit_journaled, FitOptions};
+use crate::journal::Journal;
 use crate::noise_budget::{
     noise_exponent, rays_needed, simulation_noise_share, NoiseCheck, DEFAULT_NOISE_EXPONENT,
     DEFAULT_NOISE_SHARE,
@@ -715,6 +716,10 @@ pub struct DiagnoseOptions {
     /// calibration ([`crate::noise_floor`]; default `true`): differences the
     /// measurement's own noise hides are no evidence of an effect.
     pub noise_floor: bool,
+    /// Where the diagnosis keeps its fits and its wall-clock decisions as it
+    /// goes ([`Journal`]; default: nowhere). Started again on the journal of
+    /// a killed run, it skips what was done and ends with the same results.
+    pub journal: Journal,
 }
 
 /// Default [`DiagnoseOptions::smoothing_wavelengths`]: half a wavelength, a
@@ -741,6 +746,7 @@ impl Default for DiagnoseOptions {
             noise_share: DEFAULT_NOISE_SHARE,
             smoothing_wavelengths: DEFAULT_SMOOTHING_WAVELENGTHS,
             noise_floor: true,
+            journal: Journal::default(),
         }
     }
 }
@@ -1232,6 +1238,7 @@ fn calibrate(
     iters: usize,
     rays: usize,
     opts: &DiagnoseOptions,
+    key: &str,
     timings: &mut Timings,
 ) -> Result<Stage, OptimError> {
     let seed = opts.render.seed.unwrap_or(scene.acquisition.seed);
@@ -1256,13 +1263,15 @@ fn calibrate(
     };
     let mut objective = setup.objective(scene.clone(), measured, specs.to_vec(), &render_s)?;
     let x0 = start.map_or_else(|| objective.initial_physical(), <[f64]>::to_vec);
-    let cal = fit(
+    let cal = fit_journaled(
         &mut objective,
         &x0,
         &FitOptions {
             iters,
             ..opts.fit.clone()
         },
+        &opts.journal,
+        key,
         |_| {},
     )?;
     let cal_scene = objective.scene_at(&cal.final_params)?;
@@ -1365,7 +1374,7 @@ fn refit_candidate(
         .setup
         .objective(on, measured, refit_specs, &stage.render_s)?;
     let x0 = obj.initial_physical();
-    let r = fit(
+    let r = fit_journaled(
         &mut obj,
         &x0,
         &FitOptions {
@@ -1373,6 +1382,8 @@ fn refit_candidate(
             lr_overrides: vec![(c.path.clone(), refit_learning_rate(c, start))],
             ..opts.fit.clone()
         },
+        &opts.journal,
+        &format!("refit {} ({})", c.effect, c.path),
         |_| {},
     )?;
     let fitted = obj.scene_at(&r.final_params)?;
@@ -1498,10 +1509,14 @@ pub fn diagnose(
         opts.calibration_iters,
         rays,
         opts,
+        "calibration 0",
         &mut timings,
     )?;
-    // Time of a full-length calibration stage per ray.
-    let stage_s_per_ray = t_stage.elapsed().as_secs_f64() / rays as f64;
+    // Time of a full-length calibration stage per ray (as first measured, on
+    // a resumed run).
+    let stage_s_per_ray = opts.journal.remember("calibration seconds per ray", || {
+        Ok(t_stage.elapsed().as_secs_f64() / rays as f64)
+    })?;
     let share = |s: &Stage| simulation_noise_share(s.noise_loss, s.held_loss);
     let mut history = vec![(rays, share(&stage), stage.noise_loss)];
     let check = |history: &[(usize, f64, f64)], stage: &Stage, rays: usize| {
@@ -1530,7 +1545,7 @@ pub fn diagnose(
     };
     let mut noise_check = check(&history, &stage, rays);
     if let Some(budget) = opts.budget_s {
-        for _ in 0..MAX_RAY_RAISES {
+        for raise in 1..=MAX_RAY_RAISES {
             if noise_check.passed {
                 break;
             }
@@ -1542,7 +1557,13 @@ pub fn diagnose(
                 .max(rays + 1);
             // A recalibration of half the iterations at `next`, then the rest.
             let cost = stage_s_per_ray * next as f64 * (0.5 + DIAGNOSIS_OVER_CALIBRATION - 1.0);
-            if started.elapsed().as_secs_f64() + cost > budget {
+            // Decided on the wall clock, so kept for a resumed run.
+            let affordable = opts
+                .journal
+                .remember(&format!("raise {raise} affordable"), || {
+                    Ok(started.elapsed().as_secs_f64() + cost <= budget)
+                })?;
+            if !affordable {
                 break;
             }
             progress(&format!(
@@ -1560,6 +1581,7 @@ pub fn diagnose(
                 opts.calibration_iters.div_ceil(2),
                 rays,
                 opts,
+                &format!("calibration {raise}"),
                 &mut timings,
             )?;
             history.push((rays, share(&stage), stage.noise_loss));
@@ -1670,13 +1692,15 @@ pub fn diagnose(
         stage
             .setup
             .objective(cal_scene.clone(), measured, specs.clone(), &render_s)?;
-    let null_fit = fit(
+    let null_fit = fit_journaled(
         &mut null_obj,
         &stage.params,
         &FitOptions {
             iters: opts.refit_iters,
             ..opts.fit.clone()
         },
+        &opts.journal,
+        "null refit",
         |_| {},
     )?;
     let null_after = held_out(
@@ -1910,14 +1934,25 @@ pub fn diagnose_compound(
         let mut free: Vec<String> = last.calibrated.params.keys().cloned().collect();
         free.push(format!("{path}={}:{}", named.range[0], named.range[1]));
         let elapsed = started.elapsed().as_secs_f64();
-        let budget_s = match opts.budget_s {
-            Some(b) if b - elapsed <= 0.5 * elapsed / out.len() as f64 => break,
-            Some(b) => Some(b - elapsed),
-            None => None,
-        };
+        // Whether to go on and the budget left, decided on the wall clock and so
+        // kept for a resumed run.
+        let round_no = out.len() + 1;
+        let (go_on, budget_s): (bool, Option<f64>) =
+            opts.journal
+                .remember(&format!("round {round_no} budget"), || {
+                    Ok(match opts.budget_s {
+                        Some(b) if b - elapsed <= 0.5 * elapsed / out.len() as f64 => (false, None),
+                        Some(b) => (true, Some(b - elapsed)),
+                        None => (true, None),
+                    })
+                })?;
+        if !go_on {
+            break;
+        }
         let round = DiagnoseOptions {
             free_params: free,
             budget_s,
+            journal: opts.journal.scoped(&format!("round {round_no}")),
             render: RenderOptions {
                 rays_per_element: Some(last.noise_check.rays),
                 ..opts.render.clone()

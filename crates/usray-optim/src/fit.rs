@@ -2,7 +2,8 @@
 //! iteration"): Adam with parameter groups on the paper's clip-and-scale state
 //! (eqs. clip01, scale_phys, clip_grad), gradient clipping, common random numbers.
 
-use crate::adam::{Adam, AdamGroup};
+use crate::adam::{Adam, AdamGroup, AdamState};
+use crate::journal::Journal;
 use crate::objective::Objective;
 use crate::params::ParamMap;
 use crate::OptimError;
@@ -109,7 +110,7 @@ impl Default for FitOptions {
 }
 
 /// One iteration of a fit.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FitStep {
     /// Iteration, from 0.
     pub iter: usize,
@@ -124,7 +125,7 @@ pub struct FitStep {
 }
 
 /// The outcome of a fit.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FitResult {
     /// Loss and parameters at every iteration (before its update).
     pub history: Vec<FitStep>,
@@ -145,8 +146,41 @@ pub fn fit(
     objective: &mut Objective,
     start: &[f64],
     opts: &FitOptions,
+    progress: impl FnMut(&FitStep),
+) -> Result<FitResult, OptimError> {
+    fit_journaled(objective, start, opts, &Journal::default(), "fit", progress)
+}
+
+/// A fit's iterations so far, as a checkpoint keeps them.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct FitProgress {
+    state: Vec<f64>,
+    adam: AdamState,
+    history: Vec<FitStep>,
+}
+
+/// [`fit`], checkpointed in `journal` under `key`: the state, Adam's moments
+/// and the history after every iteration (`KEY.progress`), the result when it
+/// ends (`KEY`). Started again on the same journal, a finished fit returns its
+/// kept result and an interrupted one continues from its last iteration, with
+/// the same bits as an uninterrupted fit (only `seconds` differ). `progress`
+/// sees the kept iterations again, then the new ones.
+///
+/// # Errors
+/// As [`fit`]; a checkpoint that cannot be written or read back.
+pub fn fit_journaled(
+    objective: &mut Objective,
+    start: &[f64],
+    opts: &FitOptions,
+    journal: &Journal,
+    key: &str,
     mut progress: impl FnMut(&FitStep),
 ) -> Result<FitResult, OptimError> {
+    if let Some(done) = journal.get::<FitResult>(key)? {
+        done.history.iter().for_each(&mut progress);
+        return Ok(done);
+    }
+    let progress_key = format!("{key}.progress");
     let t0 = Instant::now();
     let map = ParamMap::new(objective.specs.clone());
     let mut state = map.state_from_physical(start);
@@ -177,7 +211,23 @@ pub fn fit(
         .seed
         .unwrap_or(objective.scene.acquisition.seed);
     let mut history = Vec::with_capacity(opts.iters);
-    for k in 0..opts.iters {
+    // Seconds already spent before an interruption.
+    let mut earlier_s = 0.0;
+    if let Some(kept) = journal.get::<FitProgress>(&progress_key)? {
+        if kept.state.len() != state.len() || kept.history.len() > opts.iters {
+            return Err(OptimError::Diagnosis(format!(
+                "checkpoint `{progress_key}` does not belong to this fit ({} parameters, {} iterations kept)",
+                kept.state.len(),
+                kept.history.len()
+            )));
+        }
+        adam.restore(&kept.adam).map_err(OptimError::Diagnosis)?;
+        state = kept.state;
+        history = kept.history;
+        history.iter().for_each(&mut progress);
+        earlier_s = history.last().map_or(0.0, |s| s.seconds);
+    }
+    for k in history.len()..opts.iters {
         if opts.resample_seed {
             objective.opts.seed = Some(base_seed.wrapping_add(k as u64));
         }
@@ -203,17 +253,36 @@ pub fn fit(
             loss: eval.loss,
             params: physical,
             grad_norm: norm,
-            seconds: t0.elapsed().as_secs_f64(),
+            seconds: earlier_s + t0.elapsed().as_secs_f64(),
         };
-        progress(&step);
         history.push(step);
+        if journal.is_active() {
+            journal.put(
+                &progress_key,
+                &FitProgress {
+                    state: state.clone(),
+                    adam: adam.state(),
+                    history: history.clone(),
+                },
+            )?;
+        }
+        progress(history.last().expect("pushed above"));
+    }
+    if opts.resample_seed {
+        // The final loss on the last iteration's seed, also after a resume.
+        if let Some(k) = opts.iters.checked_sub(1) {
+            objective.opts.seed = Some(base_seed.wrapping_add(k as u64));
+        }
     }
     let final_params = map.physical(&state);
     let final_loss = objective.value(&final_params)?.loss;
-    Ok(FitResult {
+    let result = FitResult {
         history,
         final_params,
         final_loss,
-        seconds: t0.elapsed().as_secs_f64(),
-    })
+        seconds: earlier_s + t0.elapsed().as_secs_f64(),
+    };
+    journal.put(key, &result)?;
+    journal.forget(&progress_key)?;
+    Ok(result)
 }

@@ -36,6 +36,7 @@ mod comparison;
 mod diagnose;
 mod fd;
 mod fit;
+mod journal;
 mod loss;
 mod mirror;
 mod noise_budget;
@@ -46,7 +47,7 @@ mod reference;
 pub mod residual;
 mod spread;
 
-pub use adam::{Adam, AdamGroup};
+pub use adam::{Adam, AdamGroup, AdamState};
 pub use comparison::{noise_floor, Comparison, MIN_DARK_SHARE, MODEL_DARK_GREY};
 pub use diagnose::{
     calibration_spec, catalogue, default_free_params, diagnose, diagnose_compound,
@@ -58,7 +59,8 @@ pub use diagnose::{
     MAX_STEP_HALVINGS, MIN_CHECKED_REDUCTION, SCATTERER_DENSITY_PER_MM3, TIE_MARGIN,
 };
 pub use fd::{fd_sweep, log_steps, FdPoint};
-pub use fit::{fit, FitOptions, FitResult, FitStep, ParamGroup};
+pub use fit::{fit, fit_journaled, FitOptions, FitResult, FitStep, ParamGroup};
+pub use journal::Journal;
 pub use loss::L1L2;
 pub use mirror::impedance_mirror;
 pub use noise_budget::{

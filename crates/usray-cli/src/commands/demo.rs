@@ -106,7 +106,13 @@ pub fn run(common: &Common) -> Result<()> {
         iters: DEMO_ITERS,
         ..Default::default()
     };
-    let result = run_fit(&mut objective, &options, &out, common.quiet)?;
+    let result = run_fit(
+        &mut objective,
+        &options,
+        &out,
+        &usray_optim::Journal::default(),
+        common.quiet,
+    )?;
     let wall = t_all.elapsed().as_secs_f64();
 
     // report.md

@@ -37,7 +37,12 @@ pub struct DiagnoseArgs {
     pub smoothing_wavelengths: f64,
     /// Floor the images at the measurement's noise level.
     pub noise_floor: bool,
+    /// Continue from the checkpoint in `--out`.
+    pub resume: bool,
 }
+
+/// Name of a diagnosis's checkpoint in its `--out`.
+const CHECKPOINT: &str = "diagnose.checkpoint.json";
 
 /// Runs the diagnosis and writes `diagnosis.json`, `report.md` and the images.
 pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Common) -> Result<()> {
@@ -83,6 +88,24 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         ..Default::default()
     };
     let out = OutDir::create(&common.out)?;
+    let checkpoint = out.checkpoint_path(CHECKPOINT);
+    let fingerprint = crate::output::fingerprint(&[
+        &scene,
+        &measured_img,
+        &opts.held_out_measured,
+        &format!(
+            "{:?}",
+            DiagnoseOptions {
+                journal: Default::default(),
+                ..opts.clone()
+            }
+        ),
+        &args.rounds,
+    ]);
+    let opts = DiagnoseOptions {
+        journal: usray_optim::Journal::open(&checkpoint, &fingerprint, args.resume)?,
+        ..opts
+    };
     let bar = spinner(common.quiet, "diagnose");
     let t0 = std::time::Instant::now();
     let rounds = diagnose_compound(&scene, &measured_img, &opts, args.rounds, |msg| {
@@ -145,6 +168,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         )?,
     )?;
     out.finish()?;
+    crate::output::remove_checkpoint(&checkpoint)?;
     let named: Vec<&str> = rounds.iter().map(|r| r.verdict.effect.as_str()).collect();
     eprintln!(
         "usray diagnose: verdict {} (held-out shrink {:.2}){}; simulation noise {:.0}% of the gap at {} rays; {:.1} s; wrote diagnosis.json, report.md and images to {}",

@@ -5,7 +5,7 @@ use crate::cli::{Common, Sampling};
 use crate::output::OutDir;
 use anyhow::Result;
 use std::path::Path;
-use usray_optim::{fit, FitOptions, Objective};
+use usray_optim::{fit_journaled, FitOptions, Journal, Objective};
 
 /// Settings of `usray fit` beyond the objective.
 pub struct FitArgs {
@@ -19,7 +19,12 @@ pub struct FitArgs {
     pub paired: bool,
     /// Rays, seed and sampler.
     pub sampling: Sampling,
+    /// Continue from the checkpoint in `--out`.
+    pub resume: bool,
 }
+
+/// Name of a fit's checkpoint in its `--out`.
+const CHECKPOINT: &str = "fit.checkpoint.json";
 
 /// Runs the fit and writes its outputs.
 pub fn run(
@@ -41,8 +46,20 @@ pub fn run(
         ..Default::default()
     };
     let out = OutDir::create(&common.out)?;
-    let r = run_fit(&mut objective, &options, &out, common.quiet)?;
+    let fingerprint = crate::output::fingerprint(&[
+        &objective.scene,
+        &objective.reference,
+        &objective.specs,
+        &objective.opts,
+        &objective.transmit_batches,
+        &args.paired,
+        &options,
+    ]);
+    let checkpoint = out.checkpoint_path(CHECKPOINT);
+    let journal = Journal::open(&checkpoint, &fingerprint, args.resume)?;
+    let r = run_fit(&mut objective, &options, &out, &journal, common.quiet)?;
     out.finish()?;
+    crate::output::remove_checkpoint(&checkpoint)?;
     eprintln!(
         "usray fit: loss {:.4e} → {:.4e} (×{:.1} lower) in {} iterations, {:.1} s; wrote fit.json, fitted.toml, images and plots to {}",
         r.history[0].loss,
@@ -78,12 +95,13 @@ pub fn run_fit(
     objective: &mut Objective,
     options: &FitOptions,
     out: &OutDir,
+    journal: &Journal,
     quiet: bool,
 ) -> Result<usray_optim::FitResult> {
     let start = objective.initial_physical();
     let initial = objective.value(&start)?.image.data;
     let bar = progress_bar(quiet, options.iters as u64, "fit");
-    let result = fit(objective, &start, options, |s| {
+    let result = fit_journaled(objective, &start, options, journal, "fit", |s| {
         bar.set_message(format!("loss {:.4e}", s.loss));
         bar.inc(1);
     })?;

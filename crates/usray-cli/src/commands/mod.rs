@@ -60,6 +60,7 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             resample_seed,
             batches,
             paired,
+            resume,
             sampling,
             common,
         } => fit::run(
@@ -72,8 +73,9 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
                 batches: *batches,
                 paired: *paired,
                 sampling: sampling.clone(),
+                resume: resume.is_some(),
             },
-            common,
+            &crate::output::resumed(common, resume.as_deref())?,
         ),
         Command::Diagnose {
             scene,
@@ -90,6 +92,7 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             rounds,
             smoothing,
             no_floor,
+            resume,
             common,
         } => diagnose::run(
             scene,
@@ -107,8 +110,9 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
                 rounds: *rounds,
                 smoothing_wavelengths: *smoothing,
                 noise_floor: !*no_floor,
+                resume: resume.is_some(),
             },
-            common,
+            &crate::output::resumed(common, resume.as_deref())?,
         ),
     })?
 }
