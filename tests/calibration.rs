@@ -4,8 +4,8 @@
 //! physics as `scenes/cylinder.toml`.
 
 use usray::optim::{
-    fd_sweep, fit, log_steps, Comparison, FdChannels, FitOptions, FitResult, Objective, ParamSpec,
-    TransportGradient,
+    fd_sweep, fit, fit_journaled, log_steps, Comparison, FdChannels, FitOptions, FitResult,
+    Journal, Objective, ParamSpec, TransportGradient,
 };
 use usray::transport::{RenderOptions, Scene};
 
@@ -415,4 +415,94 @@ fn experiment2_starts_and_samplers() {
             }
         }
     }
+}
+
+/// A fit killed midway and resumed from its checkpoint ends with the same bits
+/// as one never interrupted (issue 23). The kill is the checkpoint file as it
+/// stood after iteration 7 of 16, copied aside and resumed from; the fit
+/// without any journal is the reference.
+#[test]
+fn a_fit_resumed_from_its_checkpoint_gives_the_same_bits() {
+    let truth = small_scene();
+    let o = opts(8);
+    let reference = reference_of(&truth, &o);
+    let path = "objects.cylinder.radius_m";
+    let start_v = truth.get(path).unwrap() * 1.08;
+    let mut start = truth.clone();
+    start.set(path, start_v).unwrap();
+    let objective = || {
+        Objective::new(
+            start.clone(),
+            reference.clone(),
+            vec![ParamSpec::parse(path, start_v).unwrap()],
+            o.clone(),
+        )
+        .unwrap()
+    };
+    let options = FitOptions {
+        iters: 16,
+        // Fresh random numbers each iteration: the seed schedule must resume too.
+        resample_seed: true,
+        ..Default::default()
+    };
+    let plain = fit(&mut objective(), &[start_v], &options, |_| {}).unwrap();
+
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("fit.checkpoint.json");
+    let killed = dir.path().join("killed.json");
+    let journal = Journal::open(&file, "radius fit", false).unwrap();
+    let journaled = fit_journaled(
+        &mut objective(),
+        &[start_v],
+        &options,
+        &journal,
+        "fit",
+        |s| {
+            if s.iter == 7 {
+                std::fs::copy(&file, &killed).unwrap();
+            }
+        },
+    )
+    .unwrap();
+    let resumed_journal = Journal::open(&killed, "radius fit", true).unwrap();
+    let mut seen = Vec::new();
+    let resumed = fit_journaled(
+        &mut objective(),
+        &[start_v],
+        &options,
+        &resumed_journal,
+        "fit",
+        |s| seen.push(s.iter),
+    )
+    .unwrap();
+    let bits = |r: &FitResult| -> Vec<u64> {
+        r.history
+            .iter()
+            .flat_map(|h| std::iter::once(h.loss).chain(h.params.iter().copied()))
+            .chain(r.final_params.iter().copied())
+            .chain([r.final_loss])
+            .map(f64::to_bits)
+            .collect()
+    };
+    assert_eq!(
+        bits(&journaled),
+        bits(&plain),
+        "the journal changed the fit"
+    );
+    assert_eq!(bits(&resumed), bits(&plain), "the resumed fit differs");
+    // The progress callback saw the 8 kept iterations again, then the rest.
+    assert_eq!(seen, (0..16).collect::<Vec<_>>());
+    // A finished fit's journal returns its result without a single evaluation.
+    let t = std::time::Instant::now();
+    let again = fit_journaled(
+        &mut objective(),
+        &[start_v],
+        &options,
+        &journal,
+        "fit",
+        |_| {},
+    )
+    .unwrap();
+    assert_eq!(bits(&again), bits(&plain));
+    assert!(t.elapsed().as_secs_f64() < 1.0);
 }

@@ -602,3 +602,129 @@ fn sampler_flag_equals_the_scene_key() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("stratified"));
 }
+
+/// `usray fit` killed (SIGKILL) midway and continued with `--resume DIR` writes
+/// the same fit as a run never interrupted (issue 23); a resume with other
+/// arguments is refused.
+#[test]
+fn fit_killed_and_resumed_matches_an_uninterrupted_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let refdir = dir.path().join("ref");
+    let o = usray(&["render", s, "--out", refdir.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reference = refdir.join("bmode.npy");
+    let start = dir.path().join("start.toml");
+    std::fs::write(
+        &start,
+        std::fs::read_to_string(&scene)
+            .unwrap()
+            .replace("radius_m = 0.005", "radius_m = 0.0046"),
+    )
+    .unwrap();
+    let args = |out: &Path| -> Vec<String> {
+        [
+            "fit",
+            start.to_str().unwrap(),
+            "--reference",
+            reference.to_str().unwrap(),
+            "--params",
+            "objects.cylinder.radius_m,materials.target.roughness",
+            "--iters",
+            "60",
+            "--threads",
+            "1",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]
+        .iter()
+        .map(|a| a.to_string())
+        .collect()
+    };
+    let whole = dir.path().join("whole");
+    let o = Command::new(env!("CARGO_BIN_EXE_usray"))
+        .args(args(&whole))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    // Kill a second run once its checkpoint holds a few iterations.
+    let cut = dir.path().join("cut");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_usray"))
+        .args(args(&cut))
+        .spawn()
+        .unwrap();
+    let checkpoint = cut.join("fit.checkpoint.json");
+    let kept = || -> usize {
+        std::fs::read_to_string(&checkpoint)
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+            .and_then(|v| {
+                v["entries"]["fit.progress"]["history"]
+                    .as_array()
+                    .map(Vec::len)
+            })
+            .unwrap_or(0)
+    };
+    let t = std::time::Instant::now();
+    while kept() < 3 && t.elapsed().as_secs() < 120 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.kill().unwrap();
+    let status = child.wait().unwrap();
+    let n = kept();
+    assert!(
+        !status.success() && (3..60).contains(&n),
+        "the run was to be killed midway: {status}, {n} iterations kept"
+    );
+    assert!(
+        !cut.join("fit.json").exists(),
+        "a killed run wrote its results"
+    );
+
+    // Other arguments: refused, naming the cause.
+    let mut other = args(&cut);
+    other[7] = "59".into();
+    other.push("--resume".into());
+    other.push(cut.to_str().unwrap().into());
+    let o = Command::new(env!("CARGO_BIN_EXE_usray"))
+        .args(&other)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("another scene, data or options"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+
+    let mut resume = args(&cut);
+    resume.push("--resume".into());
+    resume.push(cut.to_str().unwrap().into());
+    let o = Command::new(env!("CARGO_BIN_EXE_usray"))
+        .args(&resume)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let fit_json = |d: &Path| -> serde_json::Value {
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("fit.json")).unwrap()).unwrap();
+        // Wall-clock times differ; everything else must not.
+        v["final"].as_object_mut().unwrap().remove("seconds");
+        for h in v["history"].as_array_mut().unwrap() {
+            h.as_object_mut().unwrap().remove("seconds");
+        }
+        v
+    };
+    assert_eq!(fit_json(&cut), fit_json(&whole));
+    assert!(
+        !checkpoint.exists(),
+        "the checkpoint outlived the finished fit"
+    );
+    assert_eq!(
+        std::fs::read(cut.join("fitted.toml")).unwrap(),
+        std::fs::read(whole.join("fitted.toml")).unwrap()
+    );
+}
