@@ -30,6 +30,10 @@ pub struct Common {
     /// Hide progress bars.
     #[arg(long)]
     pub quiet: bool,
+    /// Run even when the work estimate is past what runs without asking
+    /// (about 4·10⁹ traced rays, a quarter of an hour on one core).
+    #[arg(long)]
+    pub yes: bool,
 }
 
 /// How a command that renders samples the scene: overrides of its

@@ -243,6 +243,37 @@ pub fn remove_checkpoint(path: &Path) -> Result<()> {
     }
 }
 
+/// Rays a run traces without `--yes`: about a quarter of an hour at the
+/// 4·10⁶ rays/s one core traces on the cylinder scene (`usray render`'s
+/// `rays_per_second`).
+pub const MAX_RAYS_WITHOUT_YES: f64 = 4e9;
+
+/// Refuses a run of `renders` renders of `scene` (with `opts`' overrides) whose
+/// overrides pass the scene's limits, or whose traced rays pass
+/// [`MAX_RAYS_WITHOUT_YES`] unless `yes`; the error states the estimate and
+/// what to do.
+pub fn confirm_work(
+    renders: f64,
+    scene: &usray_transport::Scene,
+    opts: &usray_transport::RenderOptions,
+    yes: bool,
+) -> Result<()> {
+    // The overrides within the scene's limits first: past them no `--yes` helps.
+    opts.check(scene)?;
+    let rays = opts
+        .rays_per_element
+        .unwrap_or(scene.acquisition.rays_per_element) as f64;
+    let per_render =
+        scene.probe.n_elements as f64 * scene.acquisition.angles_deg.len() as f64 * rays;
+    let total = renders * per_render;
+    anyhow::ensure!(
+        yes || total <= MAX_RAYS_WITHOUT_YES,
+        "this run would trace about {total:.1e} rays ({renders:.0} render(s) of {per_render:.1e}: elements × transmits × rays per element), about {:.0} core-hours at 4e6 rays/s; lower the rays (--rays) or pass --yes to run it",
+        total / 4e6 / 3600.0
+    );
+    Ok(())
+}
+
 /// A spinner on stderr for long work (hidden with `--quiet` or when stderr is not
 /// a terminal).
 pub fn spinner(quiet: bool, message: &str) -> ProgressBar {

@@ -728,3 +728,52 @@ fn fit_killed_and_resumed_matches_an_uninterrupted_fit() {
         std::fs::read(whole.join("fitted.toml")).unwrap()
     );
 }
+
+/// A run whose work estimate passes the threshold is refused before any work,
+/// naming the estimate and `--yes`; `--rays` past the scene limit is refused
+/// naming the key (it ran until killed).
+#[test]
+fn work_past_the_estimate_needs_yes_and_rays_past_the_limit_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let s = scene.to_str().unwrap();
+    let refdir = dir.path().join("ref");
+    let o = usray(&["render", s, "--out", refdir.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let reference = refdir.join("bmode.npy");
+    let out = dir.path().join("big");
+    let t = std::time::Instant::now();
+    let o = usray(&[
+        "fit",
+        s,
+        "--reference",
+        reference.to_str().unwrap(),
+        "--params",
+        "objects.cylinder.radius_m",
+        "--rays",
+        "100000",
+        "--iters",
+        "10000",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("1.6e10 rays") && e.contains("--yes"), "{e}");
+    assert!(t.elapsed().as_secs() < 30, "refused only after work");
+    assert!(!out.exists(), "a refused run created its --out");
+
+    let o = usray(&[
+        "render",
+        s,
+        "--rays",
+        "1000000000000",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("acquisition.rays_per_element"), "{e}");
+}

@@ -219,6 +219,7 @@ impl Objective {
         opts: RenderOptions,
         transport: Box<dyn TransportGradient>,
     ) -> Result<Self, OptimError> {
+        opts.check(&scene)?;
         for s in &specs {
             scene.get(&s.path)?;
         }

@@ -50,6 +50,30 @@ pub struct RenderOptions {
     pub sampler: Option<Sampler>,
 }
 
+impl RenderOptions {
+    /// Checks the overrides against the scene's limits (`scene::limits`), as a
+    /// scene file's own values are: a ray count past
+    /// `MAX_RAYS_PER_ELEMENT` would run for days.
+    ///
+    /// # Errors
+    /// An override out of range, naming the scene key it overrides.
+    pub fn check(&self, scene: &Scene) -> Result<(), SceneError> {
+        use crate::scene::limits::MAX_RAYS_PER_ELEMENT;
+        if let Some(r) = self.rays_per_element {
+            if !(1..=MAX_RAYS_PER_ELEMENT).contains(&r) {
+                return Err(SceneError::new(
+                    &scene.source,
+                    "acquisition.rays_per_element",
+                    format!(
+                        "the override (--rays) {r} is outside 1..={MAX_RAYS_PER_ELEMENT} (usray_transport::scene::limits)"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Emitting elements per work chunk (fixed, so the chunking and hence the
 /// floating-point summation order never depend on the thread count).
 pub const ELEMENT_BLOCK: usize = 16;
@@ -372,6 +396,7 @@ pub fn render(
     scene: &Scene,
     opts: &RenderOptions,
 ) -> Result<(ChannelData, RenderStats), SceneError> {
+    opts.check(scene)?;
     let st = scene.lift_const::<f64>()?;
     let (samples, n_samples, stats) = render_lifted(scene, &st, opts);
     Ok((

@@ -87,6 +87,11 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         noise_floor: args.noise_floor,
         ..Default::default()
     };
+    // The calibration and the refits (the null and each confirmed candidate),
+    // twice over with the paired loss, and the held-out renders of each model.
+    let fits = (args.iters * (args.confirm + 2)) as f64 * if args.paired { 2.0 } else { 1.0 };
+    let held_out = (args.held_out_seeds * (args.confirm + 3)) as f64;
+    crate::output::confirm_work(fits + held_out, &scene, &opts.render, common.yes)?;
     let out = OutDir::create(&common.out)?;
     let checkpoint = out.checkpoint_path(CHECKPOINT);
     let fingerprint = crate::output::fingerprint(&[

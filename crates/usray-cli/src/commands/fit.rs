@@ -36,6 +36,12 @@ pub fn run(
 ) -> Result<()> {
     let mut objective = build_objective(scene, reference, params, &args.sampling, common.threads)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
+    crate::output::confirm_work(
+        args.iters as f64 * if args.paired { 2.0 } else { 1.0 },
+        &objective.scene,
+        &objective.opts,
+        common.yes,
+    )?;
     set_batches(&mut objective, args.batches)?;
     if args.paired {
         objective.pair_seeds();

@@ -19,6 +19,21 @@ pub fn run(
 ) -> Result<()> {
     let objective = build_objective(scene, reference, params, sampling, common.threads)?;
     let at = objective.initial_physical();
+    let sweep_renders = if fd_sweep {
+        objective
+            .specs
+            .iter()
+            .map(|s| 2 * super::calib::sweep_steps(s).len())
+            .sum::<usize>()
+    } else {
+        0
+    };
+    crate::output::confirm_work(
+        1.0 + sweep_renders as f64,
+        &objective.scene,
+        &objective.opts,
+        common.yes,
+    )?;
     let out = OutDir::create(&common.out)?;
     let bar = spinner(common.quiet, "loss and gradient");
     let eval = objective.value_and_gradient(&at)?;
