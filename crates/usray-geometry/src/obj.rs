@@ -16,6 +16,10 @@ use usray_ad::Real;
 
 use crate::{MeshError, MeshInstance, Transform, TriangleMesh};
 
+/// Largest OBJ file read, bytes (256 MiB: some millions of triangles, far
+/// more than a scene's anatomy needs).
+pub const MAX_OBJ_BYTES: u64 = 256 << 20;
+
 /// Parse OBJ text; `source` names the file in errors.
 pub fn parse_obj(text: &str, source: &str) -> Result<TriangleMesh, MeshError> {
     let opts = tobj::LoadOptions {
@@ -85,6 +89,20 @@ pub fn parse_obj(text: &str, source: &str) -> Result<TriangleMesh, MeshError> {
 pub fn load_obj(path: impl AsRef<Path>) -> Result<TriangleMesh, MeshError> {
     let path = path.as_ref();
     let name = path.display().to_string();
+    let size = std::fs::metadata(path)
+        .map_err(|source| MeshError::Io {
+            file: name.clone(),
+            source,
+        })?
+        .len();
+    if size > MAX_OBJ_BYTES {
+        return Err(MeshError::Parse {
+            file: name,
+            reason: format!(
+                "{size} bytes is past the limit of {MAX_OBJ_BYTES} (usray_geometry::obj::MAX_OBJ_BYTES)"
+            ),
+        });
+    }
     let text = std::fs::read_to_string(path).map_err(|source| MeshError::Io {
         file: name.clone(),
         source,

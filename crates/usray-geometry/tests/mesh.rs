@@ -731,3 +731,34 @@ fn valve_openness_derivative_matches_finite_differences() {
         .with_vertices(wrong)
         .is_err());
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(128))]
+
+    /// Generated OBJ text — vertices with any numbers (huge, tiny, NaN), faces
+    /// with any indices (0, negative, past the end, huge) and of any arity —
+    /// parses or is refused naming the file: never a panic, and a mesh that
+    /// parses passes its own invariant check.
+    #[test]
+    fn generated_obj_text_parses_or_is_refused(
+        vertices in proptest::collection::vec(proptest::array::uniform3(proptest::num::f64::ANY), 0..6),
+        faces in proptest::collection::vec(proptest::collection::vec(-3i64..10, 1..5), 0..5),
+        huge in proptest::bool::ANY,
+    ) {
+        let mut text = String::new();
+        for v in &vertices {
+            text += &format!("v {} {} {}\n", v[0], v[1], v[2]);
+        }
+        for f in &faces {
+            let idx: Vec<String> = f.iter().map(|i| i.to_string()).collect();
+            text += &format!("f {}\n", idx.join(" "));
+        }
+        if huge {
+            text += "f 1 2 99999999999999999999\n";
+        }
+        match usray_geometry::obj::parse_obj(&text, "gen.obj") {
+            Ok(mesh) => proptest::prop_assert!(mesh.check("gen.obj").is_ok()),
+            Err(e) => proptest::prop_assert!(e.to_string().contains("gen.obj"), "{}", e),
+        }
+    }
+}

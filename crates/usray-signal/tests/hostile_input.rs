@@ -327,3 +327,29 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+
+    /// A valid NPY file with bytes of its header (or the first data) overwritten
+    /// reads or is refused naming the file: never a panic, and an array that
+    /// reads holds as many values as its shape says.
+    #[test]
+    fn corrupted_npy_headers_read_or_are_refused(
+        edits in prop::collection::vec((0usize..140, any::<u8>()), 1..6),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let json = write_pair(dir.path(), &good_sidecar(), 8);
+        let npy = json.with_extension("npy");
+        let mut bytes = std::fs::read(&npy).unwrap();
+        for (at, b) in edits {
+            let i = at % bytes.len();
+            bytes[i] = b;
+        }
+        std::fs::write(&npy, &bytes).unwrap();
+        match usray_signal::io::read_npy(&npy) {
+            Ok(a) => prop_assert_eq!(a.data.len(), a.shape.iter().product::<usize>()),
+            Err(e) => prop_assert!(e.to_string().contains("c.npy"), "{}", e),
+        }
+    }
+}

@@ -198,3 +198,80 @@ fn lists_of_the_wrong_length_name_the_key() {
         assert!(e.to_string().contains("exactly"), "{e}");
     }
 }
+
+/// A value the shape does not use is refused naming it, not silently ignored
+/// (and listed by `usray params`).
+#[test]
+fn values_a_shape_does_not_use_are_refused() {
+    for extra in [
+        "normal = [0.0, 0.0, 1.0]",
+        "rotation_deg = [0.0, 0.0, 10.0]",
+        "scale = 2.0",
+        "z_top_m = 0.01",
+    ] {
+        let text = base().replace(
+            "material = \"target\"",
+            &format!("material = \"target\"\n{extra}"),
+        );
+        let e = err(&text);
+        let leaf = extra.split(' ').next().unwrap();
+        assert_eq!(e.key, format!("objects.cylinder.{leaf}"), "{e}");
+        assert!(e.to_string().contains("not used by shape"), "{e}");
+    }
+}
+
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+
+    /// Any number (huge, tiny, negative, NaN, infinite) in any numeric key of
+    /// the shipped cylinder scene loads or is refused naming that key (as the
+    /// key, or in the message of a consistency check between two keys): never a
+    /// panic, and a scene that loads passes the size limits (its channel
+    /// samples fit under `MAX_CHANNEL_SAMPLES`).
+    #[test]
+    fn any_number_in_any_key_loads_or_is_refused_naming_it(
+        line in 0usize..200,
+        value in prop_oneof![
+            any::<f64>().prop_map(|v| format!("{v:e}")),
+            prop::sample::select(vec![
+                "nan".to_string(), "inf".into(), "-inf".into(), "0".into(), "-1".into(),
+                "1e300".into(), "1e-300".into(), "4000000000".into(), "18446744073709551615".into(),
+            ]),
+        ],
+    ) {
+        let text = base();
+        let lines: Vec<&str> = text.lines().collect();
+        // The numeric `key = value` lines of the file.
+        let numeric: Vec<usize> = lines
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| {
+                l.split_once(" = ")
+                    .is_some_and(|(_, v)| v.trim().parse::<f64>().is_ok())
+            })
+            .map(|(i, _)| i)
+            .collect();
+        let at = numeric[line % numeric.len()];
+        let key = lines[at].split_once(" = ").unwrap().0.trim().to_string();
+        let mut edited: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        // TOML integers cannot take a float: such a case is a type error, named too.
+        edited[at] = format!("{key} = {value}");
+        match Scene::from_toml_str(&edited.join("\n"), "gen.toml", ".") {
+            Ok(s) => {
+                let (n, _) = usray_transport::render::sample_grid(&s);
+                let samples = n as f64
+                    * s.probe.n_elements as f64
+                    * s.acquisition.angles_deg.len() as f64;
+                prop_assert!(samples <= usray_transport::scene::limits::MAX_CHANNEL_SAMPLES);
+            }
+            // The key itself, or (a consistency between two keys) its name in
+            // the message.
+            Err(e) => prop_assert!(
+                e.key.ends_with(&key) || e.message.contains(&key),
+                "{key} = {value}: {e}"
+            ),
+        }
+    }
+}

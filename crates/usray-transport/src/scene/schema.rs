@@ -298,8 +298,25 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
             ))
         }
     };
+    // Sound speeds and frequencies inside their physical ranges (a speed of
+    // 1e-287 m/s made a record of 1e285 s, blamed on the sampling frequency).
+    let within = |k: &str, v: f64, (lo, hi): (f64, f64)| -> Result<(), SceneError> {
+        if v >= lo && v <= hi {
+            Ok(())
+        } else {
+            Err(SceneError::new(
+                f,
+                k,
+                format!("expected a value in [{lo:e}, {hi:e}] (usray_transport::scene::limits), found {v}"),
+            ))
+        }
+    };
     // 2. Medium.
-    pos("medium.sound_speed_m_s", s.medium.sound_speed_m_s)?;
+    within(
+        "medium.sound_speed_m_s",
+        s.medium.sound_speed_m_s,
+        limits::SOUND_SPEED_M_S,
+    )?;
     pos("medium.impedance_mrayl", s.medium.impedance_mrayl)?;
     nonneg(
         "medium.attenuation_db_cm_mhz",
@@ -317,8 +334,22 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
         return err("probe.n_elements", "expected at least 1 element");
     }
     pos("probe.pitch_m", p.pitch_m)?;
+    if p.pitch_m > limits::MAX_PITCH_M {
+        return err(
+            "probe.pitch_m",
+            &format!(
+                "{} m is past the limit of {} m (usray_transport::scene::limits)",
+                p.pitch_m,
+                limits::MAX_PITCH_M
+            ),
+        );
+    }
     pos("probe.element_width_m", p.element_width_m)?;
-    pos("probe.center_frequency_hz", p.center_frequency_hz)?;
+    within(
+        "probe.center_frequency_hz",
+        p.center_frequency_hz,
+        limits::FREQUENCY_HZ,
+    )?;
     pos("probe.cycles", p.cycles)?;
     pos("probe.elevation_m", p.elevation_m)?;
     nonneg("probe.main_lobe_deg", p.main_lobe_deg)?;
@@ -344,7 +375,11 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
             );
         }
     }
-    pos("acquisition.sampling_frequency_hz", a.sampling_frequency_hz)?;
+    within(
+        "acquisition.sampling_frequency_hz",
+        a.sampling_frequency_hz,
+        limits::FREQUENCY_HZ,
+    )?;
     pos("acquisition.max_depth_m", a.max_depth_m)?;
     if a.rays_per_element == 0 {
         return err("acquisition.rays_per_element", "expected at least 1 ray");
@@ -361,7 +396,7 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     nonneg("imaging.f_number", im.f_number)?;
     pos("imaging.dynamic_range_db", im.dynamic_range_db)?;
     if let Some(c) = im.sound_speed_m_s {
-        pos("imaging.sound_speed_m_s", c)?;
+        within("imaging.sound_speed_m_s", c, limits::SOUND_SPEED_M_S)?;
     }
     if im.x_range_m[1] <= im.x_range_m[0] {
         return err("imaging.x_range_m", "expected [min, max] with min < max");
@@ -373,7 +408,11 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     for (name, m) in &s.materials {
         let k = |leaf: &str| format!("materials.{name}.{leaf}");
         pos(&k("impedance_mrayl"), m.impedance_mrayl)?;
-        pos(&k("sound_speed_m_s"), m.sound_speed_m_s)?;
+        within(
+            &k("sound_speed_m_s"),
+            m.sound_speed_m_s,
+            limits::SOUND_SPEED_M_S,
+        )?;
         nonneg(&k("roughness"), m.roughness)?;
         nonneg(&k("attenuation_db_cm_mhz"), m.attenuation_db_cm_mhz)?;
         nonneg(&k("scatterer_density_per_mm3"), m.scatterer_density_per_mm3)?;
@@ -442,6 +481,9 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 forbid("z_top_m", o.z_top_m.is_some())?;
                 forbid("z_bottom_m", o.z_bottom_m.is_some())?;
                 forbid("path", o.path.is_some())?;
+                forbid("normal", o.normal.is_some())?;
+                forbid("rotation_deg", o.rotation_deg.is_some())?;
+                forbid("scale", o.scale.is_some())?;
             }
             ShapeKind::Slab => {
                 let top = need("z_top_m", o.z_top_m)?;
@@ -454,6 +496,10 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 }
                 forbid("radius_m", o.radius_m.is_some())?;
                 forbid("thickness_m", o.thickness_m.is_some())?;
+                forbid("path", o.path.is_some())?;
+                forbid("normal", o.normal.is_some())?;
+                forbid("rotation_deg", o.rotation_deg.is_some())?;
+                forbid("scale", o.scale.is_some())?;
             }
             ShapeKind::Plane => {
                 if let Some(n) = o.normal {
@@ -463,6 +509,11 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 }
                 forbid("radius_m", o.radius_m.is_some())?;
                 forbid("thickness_m", o.thickness_m.is_some())?;
+                forbid("z_top_m", o.z_top_m.is_some())?;
+                forbid("z_bottom_m", o.z_bottom_m.is_some())?;
+                forbid("path", o.path.is_some())?;
+                forbid("rotation_deg", o.rotation_deg.is_some())?;
+                forbid("scale", o.scale.is_some())?;
             }
             ShapeKind::Mesh => {
                 let Some(path) = &o.path else {
@@ -480,6 +531,9 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 }
                 forbid("radius_m", o.radius_m.is_some())?;
                 forbid("thickness_m", o.thickness_m.is_some())?;
+                forbid("z_top_m", o.z_top_m.is_some())?;
+                forbid("z_bottom_m", o.z_bottom_m.is_some())?;
+                forbid("normal", o.normal.is_some())?;
             }
         }
     }
@@ -511,6 +565,13 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
 pub mod limits {
     use super::{Scene, SceneError};
 
+    /// Range of every sound speed, m/s (gases to the fastest solids).
+    pub const SOUND_SPEED_M_S: (f64, f64) = (100.0, 20_000.0);
+    /// Largest `probe.pitch_m`, m.
+    pub const MAX_PITCH_M: f64 = 0.01;
+    /// Range of `probe.center_frequency_hz` and
+    /// `acquisition.sampling_frequency_hz`, Hz.
+    pub const FREQUENCY_HZ: (f64, f64) = (1e3, 1e10);
     /// Largest `probe.n_elements` (the largest clinical arrays have 256; 2-D
     /// matrix arrays up to a few thousand).
     pub const MAX_ELEMENTS: usize = 4096;
