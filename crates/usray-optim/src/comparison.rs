@@ -175,6 +175,13 @@ pub const MODEL_DARK_GREY: f64 = 0.05;
 /// the measurement's noise alone).
 pub const MIN_DARK_SHARE: f64 = 0.1;
 
+/// Largest noise floor, grey level (9 dB above the bottom of a 60 dB range).
+/// An estimate above it is not the measurement's noise: over half the pixels
+/// the model leaves empty then hold signal the model lacks (lumen speckle in
+/// k-Wave data gave 0.53), which is evidence for an effect, and flooring at
+/// that level would hide it; [`noise_floor`] is then 0.
+pub const MAX_NOISE_FLOOR: f64 = 0.15;
+
 /// The measurement's noise floor, grey level: over the pixels where the
 /// calibrated model's smoothed image `model` is empty (≤ [`MODEL_DARK_GREY`]),
 /// the median of the smoothed measured image `measured` plus two of its robust
@@ -183,7 +190,7 @@ pub const MIN_DARK_SHARE: f64 = 0.1;
 /// noise (or an effect the model lacks, which the median ignores while it
 /// covers under half of those pixels); a simulated pixel below this level
 /// cannot be told from that noise. 0 when under [`MIN_DARK_SHARE`] of the image
-/// is empty.
+/// is empty, or when the estimate passes [`MAX_NOISE_FLOOR`].
 ///
 /// ```
 /// use usray_optim::noise_floor;
@@ -208,7 +215,12 @@ pub fn noise_floor(model: &[f64], measured: &[f64]) -> f64 {
     let median = median_of(&mut dark);
     let mut dev: Vec<f64> = dark.iter().map(|m| (m - median).abs()).collect();
     let mad = median_of(&mut dev);
-    (median + 2.0 * 1.4826 * mad).clamp(0.0, 1.0)
+    let floor = (median + 2.0 * 1.4826 * mad).max(0.0);
+    if floor > MAX_NOISE_FLOOR {
+        0.0
+    } else {
+        floor
+    }
 }
 
 /// The median of `v` (reordered; the mean of the two middle values for an even
@@ -348,5 +360,12 @@ mod tests {
         assert!((f - 0.1).abs() < 1e-12, "{f}");
         let full: Vec<f64> = vec![0.9; n];
         assert_eq!(noise_floor(&full, &measured), 0.0);
+        // Over half the empty pixels bright (unmodelled signal, not noise):
+        // no floor rather than one that would hide it.
+        for m in measured.iter_mut().take(40) {
+            *m = 0.6;
+        }
+        assert!(0.6 > MAX_NOISE_FLOOR);
+        assert_eq!(noise_floor(&model, &measured), 0.0);
     }
 }

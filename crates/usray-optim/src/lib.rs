@@ -48,7 +48,7 @@ pub mod residual;
 mod spread;
 
 pub use adam::{Adam, AdamGroup, AdamState};
-pub use comparison::{noise_floor, Comparison, MIN_DARK_SHARE, MODEL_DARK_GREY};
+pub use comparison::{noise_floor, Comparison, MAX_NOISE_FLOOR, MIN_DARK_SHARE, MODEL_DARK_GREY};
 pub use diagnose::{
     calibration_spec, catalogue, default_free_params, diagnose, diagnose_compound,
     diagnosis_smoothing, held_out_seed, name_effect, names_an_effect, score_candidate,
