@@ -24,6 +24,21 @@ fn tiny_scene(dir: &Path) -> std::path::PathBuf {
     p
 }
 
+/// [`tiny_scene`] in `dir` and its rendered B-mode (`dir/ref/bmode.npy`).
+fn tiny_scene_and_reference(dir: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let scene = tiny_scene(dir);
+    let refdir = dir.join("ref");
+    let o = usray(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--out",
+        refdir.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    (scene, refdir.join("bmode.npy"))
+}
+
 fn usray(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_usray"))
         .args(args)
@@ -34,12 +49,8 @@ fn usray(args: &[&str]) -> std::process::Output {
 #[test]
 fn grad_writes_contract_json_and_bad_inputs_fail_cleanly() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = tiny_scene(dir.path());
+    let (scene, reference) = tiny_scene_and_reference(dir.path());
     let s = scene.to_str().unwrap();
-    let refdir = dir.path().join("ref");
-    let o = usray(&["render", s, "--out", refdir.to_str().unwrap(), "--quiet"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let reference = refdir.join("bmode.npy");
     let r = reference.to_str().unwrap();
 
     // grad.json exactly as CONTRACT §4.
@@ -609,12 +620,7 @@ fn sampler_flag_equals_the_scene_key() {
 #[test]
 fn fit_killed_and_resumed_matches_an_uninterrupted_fit() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = tiny_scene(dir.path());
-    let s = scene.to_str().unwrap();
-    let refdir = dir.path().join("ref");
-    let o = usray(&["render", s, "--out", refdir.to_str().unwrap(), "--quiet"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let reference = refdir.join("bmode.npy");
+    let (scene, reference) = tiny_scene_and_reference(dir.path());
     let start = dir.path().join("start.toml");
     std::fs::write(
         &start,
@@ -735,12 +741,8 @@ fn fit_killed_and_resumed_matches_an_uninterrupted_fit() {
 #[test]
 fn work_past_the_estimate_needs_yes_and_rays_past_the_limit_are_refused() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = tiny_scene(dir.path());
+    let (scene, reference) = tiny_scene_and_reference(dir.path());
     let s = scene.to_str().unwrap();
-    let refdir = dir.path().join("ref");
-    let o = usray(&["render", s, "--out", refdir.to_str().unwrap(), "--quiet"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let reference = refdir.join("bmode.npy");
     let out = dir.path().join("big");
     let t = std::time::Instant::now();
     let o = usray(&[

@@ -3,6 +3,8 @@
 //! never a panic. Each case a sweep of bad files found is a regression test here;
 //! property tests add generated sidecar values and corrupted MAT bytes.
 
+mod common;
+use common::{double, int16, mat_file, matrix, structure, tag};
 use proptest::prelude::*;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
@@ -105,61 +107,6 @@ fn sidecar_values_outside_their_physical_range_are_refused_naming_the_key() {
 }
 
 // ---- MAT v5 bytes ------------------------------------------------------------
-
-fn tag(ty: u32, data: &[u8]) -> Vec<u8> {
-    let mut v = ty.to_le_bytes().to_vec();
-    v.extend((data.len() as u32).to_le_bytes());
-    v.extend(data);
-    while v.len() % 8 != 0 {
-        v.push(0);
-    }
-    v
-}
-
-fn matrix(name: &str, class: u8, dims: &[i32], body: Vec<u8>) -> Vec<u8> {
-    let mut m = tag(6, &[class, 0, 0, 0, 0, 0, 0, 0]);
-    let dims: Vec<u8> = dims.iter().flat_map(|d| d.to_le_bytes()).collect();
-    m.extend(tag(5, &dims));
-    m.extend(tag(1, name.as_bytes()));
-    m.extend(body);
-    tag(14, &m)
-}
-
-fn double(name: &str, dims: &[i32], vals: &[f64]) -> Vec<u8> {
-    let bytes: Vec<u8> = vals.iter().flat_map(|d| d.to_le_bytes()).collect();
-    matrix(name, 6, dims, tag(9, &bytes))
-}
-
-fn int16(name: &str, dims: &[i32], vals: &[i16]) -> Vec<u8> {
-    let bytes: Vec<u8> = vals.iter().flat_map(|d| d.to_le_bytes()).collect();
-    matrix(name, 10, dims, tag(3, &bytes))
-}
-
-fn structure(name: &str, fields: &[(&str, Vec<u8>)]) -> Vec<u8> {
-    let mut body = tag(5, &32i32.to_le_bytes());
-    let mut names = vec![];
-    for (f, _) in fields {
-        let mut b = f.as_bytes().to_vec();
-        b.resize(32, 0);
-        names.extend(b);
-    }
-    body.extend(tag(1, &names));
-    for (_, v) in fields {
-        body.extend(v.clone());
-    }
-    matrix(name, 2, &[1, 1], body)
-}
-
-fn mat_file(vars: &[Vec<u8>]) -> Vec<u8> {
-    let mut h = b"MATLAB 5.0 MAT-file, test".to_vec();
-    h.resize(116, b' ');
-    h.extend([0u8; 8]);
-    h.extend([0x00, 0x01, b'I', b'M']);
-    for v in vars {
-        h.extend(v);
-    }
-    h
-}
 
 /// A Verasonics-style `param` with two elements, `set` replacing field values.
 fn param(set: &[(&str, f64)]) -> Vec<u8> {

@@ -54,3 +54,86 @@ pub fn norm2(a: &[f64]) -> f64 {
     dot(a, a).sqrt()
 }
 pub const EPS: f64 = f64::EPSILON;
+
+// ---- MAT v5 files built byte by byte (MathWorks, "MAT-File Format", ch. 1) ----
+
+/// A data element: type, byte count, data, padded to 8 bytes.
+pub fn tag(ty: u32, data: &[u8]) -> Vec<u8> {
+    let mut v = ty.to_le_bytes().to_vec();
+    v.extend((data.len() as u32).to_le_bytes());
+    v.extend(data);
+    while v.len() % 8 != 0 {
+        v.push(0);
+    }
+    v
+}
+/// An `miMATRIX` of `class` with `dims`, `name` and `body`.
+pub fn matrix(name: &str, class: u8, dims: &[i32], body: Vec<u8>) -> Vec<u8> {
+    let mut m = tag(6, &[class, 0, 0, 0, 0, 0, 0, 0]);
+    m.extend(tag(
+        5,
+        &dims
+            .iter()
+            .flat_map(|d| d.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    ));
+    m.extend(tag(1, name.as_bytes()));
+    m.extend(body);
+    tag(14, &m)
+}
+/// A `double` array.
+pub fn double(name: &str, dims: &[i32], vals: &[f64]) -> Vec<u8> {
+    matrix(
+        name,
+        6,
+        dims,
+        tag(
+            9,
+            &vals
+                .iter()
+                .flat_map(|d| d.to_le_bytes())
+                .collect::<Vec<u8>>(),
+        ),
+    )
+}
+/// An `int16` array.
+pub fn int16(name: &str, dims: &[i32], vals: &[i16]) -> Vec<u8> {
+    matrix(
+        name,
+        10,
+        dims,
+        tag(
+            3,
+            &vals
+                .iter()
+                .flat_map(|d| d.to_le_bytes())
+                .collect::<Vec<u8>>(),
+        ),
+    )
+}
+/// A 1×1 struct of `fields`.
+pub fn structure(name: &str, fields: &[(&str, Vec<u8>)]) -> Vec<u8> {
+    let mut body = tag(5, &32i32.to_le_bytes());
+    let mut names = vec![];
+    for (f, _) in fields {
+        let mut b = f.as_bytes().to_vec();
+        b.resize(32, 0);
+        names.extend(b);
+    }
+    body.extend(tag(1, &names));
+    for (_, v) in fields {
+        body.extend(v.clone());
+    }
+    matrix(name, 2, &[1, 1], body)
+}
+/// A MAT v5 file of `vars`.
+pub fn mat_file(vars: &[Vec<u8>]) -> Vec<u8> {
+    let mut h = b"MATLAB 5.0 MAT-file, test".to_vec();
+    h.resize(116, b' ');
+    h.extend([0u8; 8]);
+    h.extend([0x00, 0x01, b'I', b'M']);
+    for v in vars {
+        h.extend(v);
+    }
+    h
+}
