@@ -779,3 +779,50 @@ fn work_past_the_estimate_needs_yes_and_rays_past_the_limit_are_refused() {
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("acquisition.rays_per_element"), "{e}");
 }
+
+/// Beamforming past the delay-and-sum estimate (pixels × records) needs `--yes`,
+/// refused before the work: 4096 elements × 4 transmits onto 1.2·10⁷ pixels
+/// (2·10¹¹ terms).
+#[test]
+fn beamforming_past_the_estimate_needs_yes() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("fine.toml");
+    std::fs::write(
+        &scene,
+        CYLINDER.replace("pixel_m = 0.1e-3", "pixel_m = 0.8e-5"),
+    )
+    .unwrap();
+    let meta: usray_signal::ChannelMeta = serde_json::from_value(serde_json::json!({
+        "format": "usray-channels/1", "sampling_frequency_hz": 40e6, "t0_s": 0.0,
+        "sound_speed_m_s": 1540.0, "center_frequency_hz": 5e6,
+        "probe": {"kind": "linear", "n_elements": 4096, "pitch_m": 0.1e-3, "element_width_m": 0.1e-3},
+        "transmits": [{"kind": "plane_wave", "angle_rad": -0.1}, {"kind": "plane_wave", "angle_rad": 0.0},
+                      {"kind": "plane_wave", "angle_rad": 0.1}, {"kind": "plane_wave", "angle_rad": 0.2}]
+    }))
+    .unwrap();
+    let data = usray_signal::ChannelData {
+        meta,
+        n_samples: 4,
+        samples: vec![0.0; 4 * 4096 * 4],
+    };
+    let channels = dir.path().join("wide.json");
+    usray_signal::write_channels(&channels, &data).unwrap();
+    let out = dir.path().join("bf");
+    let t = std::time::Instant::now();
+    let o = usray(&[
+        "beamform",
+        channels.to_str().unwrap(),
+        "--scene",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("delay-and-sum terms") && e.contains("--yes"),
+        "{e}"
+    );
+    assert!(t.elapsed().as_secs() < 30, "refused only after work");
+}

@@ -11,6 +11,12 @@ use usray_transport::Scene;
 pub fn run(channels: &Path, scene: &Path, common: &Common) -> Result<()> {
     let scene = Scene::load(scene)?;
     let data = read_channels(channels)?;
+    crate::output::confirm_beamforming(
+        1.0,
+        &scene,
+        (data.n_elements() * data.n_transmits()) as f64,
+        common.yes,
+    )?;
     let out = OutDir::create(&common.out)?;
     let (nz, nx) = super::render::beamform_to(&scene, &data, &out)?;
     out.finish()?;
