@@ -288,6 +288,9 @@ fn diagnose_writes_report_with_parameter_spreads() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("diagnosis.json")).unwrap())
             .unwrap();
+    // The default comparison is the paper's pixel-wise one: no smoothing, no floor.
+    assert_eq!(v["comparison"]["sigma_z_px"], 0.0, "{}", v["comparison"]);
+    assert_eq!(v["comparison"]["floor"], 0.0, "{}", v["comparison"]);
     let params = v["calibrated"]["params"].as_object().unwrap();
     let stds = v["calibrated"]["params_std"].as_object().unwrap();
     assert_eq!(

@@ -708,13 +708,16 @@ pub struct DiagnoseOptions {
     pub noise_share: f64,
     /// Standard deviation of the Gaussian both images are smoothed by before
     /// every loss, in wavelengths at the probe's centre frequency
-    /// ([`diagnosis_smoothing`]; default [`DEFAULT_SMOOTHING_WAVELENGTHS`]; 0:
+    /// ([`diagnosis_smoothing`]; default [`DEFAULT_SMOOTHING_WAVELENGTHS`]: 0,
     /// none). Speckle and electronic noise, which no simulation reproduces
-    /// pixel for pixel, average out over it; echoes keep their place.
+    /// pixel for pixel, average out over it; echoes keep their place. 0.5 is
+    /// the tested value (docs/diagnosis.md, "How the images are compared").
     pub smoothing_wavelengths: f64,
     /// Floor both images at the measurement's noise level after the
-    /// calibration ([`crate::noise_floor`]; default `true`): differences the
-    /// measurement's own noise hides are no evidence of an effect.
+    /// calibration ([`crate::noise_floor`]; default `false`): differences the
+    /// measurement's own noise hides are no evidence of an effect. Opt-in: a
+    /// floor also removes the gradient that grows an echo out of the dark,
+    /// biasing a refit (the CI thick ring's wall: −16%, 38 spreads off).
     pub noise_floor: bool,
     /// Where the diagnosis keeps its fits and its wall-clock decisions as it
     /// goes ([`Journal`]; default: nowhere). Started again on the journal of
@@ -722,11 +725,13 @@ pub struct DiagnoseOptions {
     pub journal: Journal,
 }
 
-/// Default [`DiagnoseOptions::smoothing_wavelengths`]: half a wavelength, a
-/// Gaussian whose full width at half maximum (1.2 λ) is under one resolution
-/// cell of the usual F-numbers and pulses (about `F#·λ` across, `N_cycles·λ/2`
-/// deep), so an echo's position and width still show.
-pub const DEFAULT_SMOOTHING_WAVELENGTHS: f64 = 0.5;
+/// Default [`DiagnoseOptions::smoothing_wavelengths`]: 0, the paper's
+/// pixel-wise comparison. Smoothing by half a wavelength (a Gaussian whose full
+/// width at half maximum, 1.2 λ, is under one resolution cell) with the noise
+/// floor named as many hidden effects on the benchmark's tiers as the
+/// pixel-wise loss (6 of 9 and 3 of 10), other ones, and biased the refitted
+/// parameters, so it is an option, not the default (docs/diagnosis.md).
+pub const DEFAULT_SMOOTHING_WAVELENGTHS: f64 = 0.0;
 
 impl Default for DiagnoseOptions {
     fn default() -> Self {
@@ -745,7 +750,7 @@ impl Default for DiagnoseOptions {
             budget_s: None,
             noise_share: DEFAULT_NOISE_SHARE,
             smoothing_wavelengths: DEFAULT_SMOOTHING_WAVELENGTHS,
-            noise_floor: true,
+            noise_floor: false,
             journal: Journal::default(),
         }
     }

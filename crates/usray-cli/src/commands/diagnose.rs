@@ -207,12 +207,12 @@ fn comparison_sentence(d: &Diagnosis, scene: &Scene) -> String {
     };
     let floor = if c.floor > 0.0 {
         format!(
-            ", and floored at grey {:.3} ({:.1} dB): the measurement's noise level where the calibrated model's image is empty (`usray_optim::noise_floor`; `--no-floor` leaves it out), below which a difference is no evidence",
+            ", and floored at grey {:.3} ({:.1} dB): the measurement's noise level where the calibrated model's image is empty (`usray_optim::noise_floor`, `--floor`), below which a difference is no evidence",
             c.floor,
             -(1.0 - c.floor) * scene.imaging.dynamic_range_db
         )
     } else {
-        ", with no noise floor (none found where the model is empty, or `--no-floor`)".to_string()
+        ", with no noise floor (`--floor` adds one)".to_string()
     };
     format!("Every loss after the calibration compares the images {smoothing}{floor}.")
 }

@@ -91,7 +91,7 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             budget,
             rounds,
             smoothing,
-            no_floor,
+            floor,
             resume,
             common,
         } => diagnose::run(
@@ -109,7 +109,7 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
                 budget_s: *budget,
                 rounds: *rounds,
                 smoothing_wavelengths: *smoothing,
-                noise_floor: !*no_floor,
+                noise_floor: *floor,
                 resume: resume.is_some(),
             },
             &crate::output::resumed(common, resume.as_deref())?,
