@@ -10,8 +10,7 @@
 //!
 //! ```
 //! use usray_optim::Journal;
-//! let dir = tempfile::tempdir().unwrap();
-//! let path = dir.path().join("run.journal.json");
+//! let path = std::env::temp_dir().join(format!("usray-journal-doc-{}.json", std::process::id()));
 //! let journal = Journal::open(&path, "problem 1", false).unwrap();
 //! let mut calls = 0;
 //! let x: f64 = journal.remember("step", || { calls += 1; Ok(0.1 + 0.2) }).unwrap();
@@ -21,6 +20,7 @@
 //! assert_eq!((x.to_bits(), calls), (y.to_bits(), 1));
 //! // A journal of another problem is refused.
 //! assert!(Journal::open(&path, "problem 2", true).is_err());
+//! std::fs::remove_file(&path).unwrap();
 //! ```
 
 use crate::OptimError;

@@ -19,8 +19,8 @@ pub mod limits {
     pub const FREQUENCY_HZ: (f64, f64) = (1e3, 1e10);
     /// Sound speed, m/s: `(100, 20 000]` (gases to the fastest solids).
     pub const SOUND_SPEED_M_S: (f64, f64) = (100.0, 20_000.0);
-    /// Element pitch, m: `(0, 10 mm]`.
-    pub const PITCH_M: (f64, f64) = (0.0, 0.01);
+    /// Element pitch, m: `(0, 100 mm]` (as a scene's `probe.pitch_m`).
+    pub const PITCH_M: (f64, f64) = (0.0, 0.1);
     /// Largest `|t0_s|`, s.
     pub const MAX_ABS_T0_S: f64 = 1.0;
     /// Largest `probe.n_elements` (as a scene's `probe.n_elements`).

@@ -567,8 +567,9 @@ pub mod limits {
 
     /// Range of every sound speed, m/s (gases to the fastest solids).
     pub const SOUND_SPEED_M_S: (f64, f64) = (100.0, 20_000.0);
-    /// Largest `probe.pitch_m`, m.
-    pub const MAX_PITCH_M: f64 = 0.01;
+    /// Largest `probe.pitch_m`, m (arrays have under 2 mm; two separate
+    /// transducers a few centimetres apart are a test set-up).
+    pub const MAX_PITCH_M: f64 = 0.1;
     /// Range of `probe.center_frequency_hz` and
     /// `acquisition.sampling_frequency_hz`, Hz.
     pub const FREQUENCY_HZ: (f64, f64) = (1e3, 1e10);
@@ -650,7 +651,7 @@ pub mod limits {
             return over(
                 "acquisition.sampling_frequency_hz",
                 format!(
-                    "{total:.3e} channel samples ({} transmits × {} elements × {per_record:.3e} samples per record of {:.3e} s at {} Hz, with max_depth_m, probe.cycles and probe.center_frequency_hz)",
+                    "{total:.3e} channel samples ({} transmits × {} elements × {per_record:.3e} samples per record of {:.3e} s at {} Hz, from max_depth_m, the sound_speed_m_s of the medium and the beamformer, the aperture (probe.n_elements × pitch_m, for the steered transmits' delays), probe.cycles and probe.center_frequency_hz)",
                     a.angles_deg.len(),
                     p.n_elements,
                     duration_s,
