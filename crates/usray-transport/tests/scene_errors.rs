@@ -152,6 +152,16 @@ fn sizes_past_the_limits_name_the_key() {
         ),
         ("pixel_m = 0.1e-3", "pixel_m = 1.0e-9", "imaging.pixel_m"),
         (
+            "center_frequency_hz = 5.0e6",
+            "center_frequency_hz = 1.0e-6",
+            "probe.center_frequency_hz",
+        ),
+        (
+            "angles_deg = [-10.0, -5.0, 0.0, 5.0, 10.0]",
+            &format!("angles_deg = [{}]", vec!["0.0"; 100_000].join(", ")),
+            "acquisition.angles_deg",
+        ),
+        (
             "element_width_m = 0.27e-3",
             "element_width_m = 0.5e-3",
             "probe.element_width_m",
