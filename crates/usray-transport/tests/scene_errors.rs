@@ -285,3 +285,44 @@ proptest! {
         }
     }
 }
+
+/// Values no physical set-up has are refused naming the key, not rendered
+/// (a sweep of hostile values found each of these accepted).
+#[test]
+fn values_outside_their_physical_range_name_the_key() {
+    for (old, new, key) in [
+        (
+            "radius_m = 0.005",
+            "radius_m = 1e300",
+            "objects.cylinder.radius_m",
+        ),
+        (
+            "roughness = 0.3",
+            "roughness = 1e9",
+            "materials.target.roughness",
+        ),
+        ("f_number = 1.5", "f_number = 1e300", "imaging.f_number"),
+        (
+            "dynamic_range_db = 60.0",
+            "dynamic_range_db = 1e300",
+            "imaging.dynamic_range_db",
+        ),
+        ("pixel_m = 0.1e-3", "pixel_m = 1e300", "imaging.pixel_m"),
+        ("cycles = 3.0", "cycles = 1e-300", "probe.cycles"),
+        (
+            "impedance_mrayl = 1.99",
+            "impedance_mrayl = 1e300",
+            "materials.target.impedance_mrayl",
+        ),
+        (
+            "attenuation_db_cm_mhz = 0.0",
+            "attenuation_db_cm_mhz = 1e9",
+            "medium.attenuation_db_cm_mhz",
+        ),
+    ] {
+        let text = base();
+        assert!(text.contains(old), "{old}");
+        let e = err(&text.replacen(old, new, 1));
+        assert_eq!(e.key, key, "{e}");
+    }
+}

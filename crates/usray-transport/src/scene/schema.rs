@@ -317,10 +317,15 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
         s.medium.sound_speed_m_s,
         limits::SOUND_SPEED_M_S,
     )?;
-    pos("medium.impedance_mrayl", s.medium.impedance_mrayl)?;
-    nonneg(
+    within(
+        "medium.impedance_mrayl",
+        s.medium.impedance_mrayl,
+        limits::IMPEDANCE_MRAYL,
+    )?;
+    within(
         "medium.attenuation_db_cm_mhz",
         s.medium.attenuation_db_cm_mhz,
+        limits::ATTENUATION_DB_CM_MHZ,
     )?;
     // 3. Probe.
     let p = &s.probe;
@@ -351,6 +356,11 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
         limits::FREQUENCY_HZ,
     )?;
     pos("probe.cycles", p.cycles)?;
+    within(
+        "probe.cycles",
+        p.cycles,
+        (limits::MIN_CYCLES, limits::MAX_CYCLES),
+    )?;
     pos("probe.elevation_m", p.elevation_m)?;
     nonneg("probe.main_lobe_deg", p.main_lobe_deg)?;
     if !(p.cutoff_deg > p.main_lobe_deg && p.cutoff_deg <= 90.0) {
@@ -393,8 +403,14 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     // 5. Imaging.
     let im = &s.imaging;
     pos("imaging.pixel_m", im.pixel_m)?;
-    nonneg("imaging.f_number", im.f_number)?;
+    within("imaging.f_number", im.f_number, limits::F_NUMBER)?;
     pos("imaging.dynamic_range_db", im.dynamic_range_db)?;
+    within(
+        "imaging.dynamic_range_db",
+        im.dynamic_range_db,
+        limits::DYNAMIC_RANGE_DB,
+    )?;
+    within("imaging.pixel_m", im.pixel_m, (0.0, limits::MAX_PIXEL_M))?;
     if let Some(c) = im.sound_speed_m_s {
         within("imaging.sound_speed_m_s", c, limits::SOUND_SPEED_M_S)?;
     }
@@ -407,14 +423,22 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     // 6. Materials.
     for (name, m) in &s.materials {
         let k = |leaf: &str| format!("materials.{name}.{leaf}");
-        pos(&k("impedance_mrayl"), m.impedance_mrayl)?;
+        within(
+            &k("impedance_mrayl"),
+            m.impedance_mrayl,
+            limits::IMPEDANCE_MRAYL,
+        )?;
         within(
             &k("sound_speed_m_s"),
             m.sound_speed_m_s,
             limits::SOUND_SPEED_M_S,
         )?;
-        nonneg(&k("roughness"), m.roughness)?;
-        nonneg(&k("attenuation_db_cm_mhz"), m.attenuation_db_cm_mhz)?;
+        within(&k("roughness"), m.roughness, limits::ROUGHNESS)?;
+        within(
+            &k("attenuation_db_cm_mhz"),
+            m.attenuation_db_cm_mhz,
+            limits::ATTENUATION_DB_CM_MHZ,
+        )?;
         nonneg(&k("scatterer_density_per_mm3"), m.scatterer_density_per_mm3)?;
         nonneg(&k("scatterer_strength"), m.scatterer_strength)?;
     }
@@ -464,6 +488,7 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
             ShapeKind::Cylinder | ShapeKind::Sphere => {
                 let r = need("radius_m", o.radius_m)?;
                 pos(&k("radius_m"), r)?;
+                within(&k("radius_m"), r, (0.0, limits::MAX_LENGTH_M))?;
                 if let Some(t) = o.thickness_m {
                     if o.shape == ShapeKind::Sphere {
                         return err(
@@ -567,6 +592,21 @@ pub mod limits {
 
     /// Range of every sound speed, m/s (gases to the fastest solids).
     pub const SOUND_SPEED_M_S: (f64, f64) = (100.0, 20_000.0);
+    /// Range of every impedance, MRayl (air's 4·10⁻⁴ to a rigid mirror's 10⁴ and
+    /// beyond).
+    pub const IMPEDANCE_MRAYL: (f64, f64) = (1e-5, 1e6);
+    /// Range of every attenuation, dB/(cm·MHz) (tissue 0.5, bone 20).
+    pub const ATTENUATION_DB_CM_MHZ: (f64, f64) = (0.0, 1e3);
+    /// Range of a material's `roughness` (GGX α; 1 is already very rough).
+    pub const ROUGHNESS: (f64, f64) = (0.0, 10.0);
+    /// Fewest `probe.cycles` of the pulse.
+    pub const MIN_CYCLES: f64 = 0.1;
+    /// Range of `imaging.f_number`.
+    pub const F_NUMBER: (f64, f64) = (0.0, 100.0);
+    /// Range of `imaging.dynamic_range_db`.
+    pub const DYNAMIC_RANGE_DB: (f64, f64) = (0.0, 300.0);
+    /// Largest `imaging.pixel_m`, m.
+    pub const MAX_PIXEL_M: f64 = 0.01;
     /// Largest `probe.pitch_m`, m (arrays have under 2 mm; two separate
     /// transducers a few centimetres apart are a test set-up).
     pub const MAX_PITCH_M: f64 = 0.1;
