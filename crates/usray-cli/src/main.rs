@@ -4,6 +4,7 @@ mod cli;
 mod commands;
 mod output;
 mod plots;
+mod work;
 
 use clap::Parser;
 use std::process::ExitCode;

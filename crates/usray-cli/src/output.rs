@@ -22,6 +22,8 @@ pub struct OutDir {
     dir: PathBuf,
     staging: PathBuf,
     lock: PathBuf,
+    /// The run's checkpoint, if it keeps one ([`OutDir::journal`]).
+    checkpoint: Option<PathBuf>,
     finished: bool,
 }
 
@@ -50,6 +52,7 @@ impl OutDir {
             dir: dir.to_path_buf(),
             staging: dir.join(format!("{STAGING_PREFIX}{pid}")),
             lock,
+            checkpoint: None,
             finished: false,
         };
         remove_stale(dir)?;
@@ -64,13 +67,25 @@ impl OutDir {
         self.staging.join(name)
     }
 
-    /// The path of a checkpoint `name`, kept in the output directory itself (not
-    /// the staging folder), so that it outlives a killed run.
-    pub fn checkpoint_path(&self, name: &str) -> PathBuf {
-        self.dir.join(name)
+    /// The run's checkpoint `name`, kept in the output directory itself (not the
+    /// staging folder) so that it outlives a killed run, and removed by
+    /// [`OutDir::finish`]. It records a digest of `problem` — everything that
+    /// determines the run's results (scene, data, options) — so that `resume`
+    /// refuses the checkpoint of another problem.
+    pub fn journal(
+        &mut self,
+        name: &str,
+        problem: &[&dyn std::fmt::Debug],
+        resume: bool,
+    ) -> Result<usray_optim::Journal> {
+        let path = self.dir.join(name);
+        let journal = usray_optim::Journal::open(&path, &fingerprint(problem), resume)?;
+        self.checkpoint = Some(path);
+        Ok(journal)
     }
 
-    /// Moves every staged file into the output directory and releases the lock.
+    /// Moves every staged file into the output directory, removes the checkpoint
+    /// (if any) and releases the lock.
     pub fn finish(mut self) -> Result<()> {
         let entries = std::fs::read_dir(&self.staging)
             .with_context(|| format!("reading {}", self.staging.display()))?;
@@ -83,6 +98,15 @@ impl OutDir {
         self.finished = true;
         std::fs::remove_dir(&self.staging)
             .with_context(|| format!("removing {}", self.staging.display()))?;
+        // The results are written: the checkpoint has done its work.
+        if let Some(c) = &self.checkpoint {
+            match std::fs::remove_file(c) {
+                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                    return Err(e).with_context(|| format!("removing {}", c.display()))
+                }
+                _ => {}
+            }
+        }
         std::fs::remove_file(&self.lock)
             .with_context(|| format!("releasing {}", self.lock.display()))?;
         Ok(())
@@ -217,7 +241,7 @@ pub fn resumed(common: &Common, resume: Option<&Path>) -> Result<Common> {
 /// options, and this build's version), as its checkpoint records it: a
 /// checkpoint of another problem is refused on `--resume`. `Debug` prints
 /// `f64` in its shortest exact form, so equal inputs give equal digests.
-pub fn fingerprint(parts: &[&dyn std::fmt::Debug]) -> String {
+fn fingerprint(parts: &[&dyn std::fmt::Debug]) -> String {
     use std::hash::Hasher as _;
     struct Digest(std::collections::hash_map::DefaultHasher);
     impl std::fmt::Write for Digest {
@@ -232,70 +256,6 @@ pub fn fingerprint(parts: &[&dyn std::fmt::Debug]) -> String {
         let _ = std::fmt::Write::write_fmt(&mut d, format_args!("\u{1f}{p:?}"));
     }
     format!("{:016x}", d.0.finish())
-}
-
-/// Removes a finished run's checkpoint (its results are written).
-pub fn remove_checkpoint(path: &Path) -> Result<()> {
-    match std::fs::remove_file(path) {
-        Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        Err(e) => Err(e).with_context(|| format!("removing {}", path.display())),
-    }
-}
-
-/// Rays a run traces without `--yes`: about a minute at the 4·10⁶ rays/s one
-/// core traces on the cylinder scene (`usray render`'s `rays_per_second`); the
-/// shipped scenes' fits and diagnoses trace under 6·10⁷.
-pub const MAX_RAYS_WITHOUT_YES: f64 = 2.4e8;
-
-/// Delay-and-sum terms (pixels × elements × transmits, summed over the images
-/// formed) a run computes without `--yes`: about two minutes at the 9·10⁷ per
-/// second of one core (`docs/performance.md`, "delay-and-sum throughput"); a
-/// 150-iteration fit of `scenes/cylinder.toml` forms 7.5·10⁹.
-pub const MAX_DAS_TERMS_WITHOUT_YES: f64 = 1e10;
-
-/// Refuses a run of `renders` renders of `scene` (with `opts`' overrides) whose
-/// overrides pass the scene's limits, or whose traced rays pass
-/// [`MAX_RAYS_WITHOUT_YES`] unless `yes`; the error states the estimate and
-/// what to do. Each render is also beamformed ([`confirm_beamforming`]).
-pub fn confirm_work(
-    renders: f64,
-    scene: &usray_transport::Scene,
-    opts: &usray_transport::RenderOptions,
-    yes: bool,
-) -> Result<()> {
-    // The overrides within the scene's limits first: past them no `--yes` helps.
-    opts.check(scene)?;
-    let rays = opts
-        .rays_per_element
-        .unwrap_or(scene.acquisition.rays_per_element) as f64;
-    let channels = scene.probe.n_elements as f64 * scene.acquisition.angles_deg.len() as f64;
-    let per_render = channels * rays;
-    let total = renders * per_render;
-    anyhow::ensure!(
-        yes || total <= MAX_RAYS_WITHOUT_YES,
-        "this run would trace about {total:.1e} rays ({renders:.0} render(s) of {per_render:.1e}: elements × transmits × rays per element), at least {:.2} core-hours at 4e6 rays/s; lower the rays (--rays) or pass --yes to run it",
-        total / 4e6 / 3600.0
-    );
-    confirm_beamforming(renders, scene, channels, yes)
-}
-
-/// Refuses forming `images` B-modes on `scene`'s grid from `channels` records
-/// (elements × transmits) past [`MAX_DAS_TERMS_WITHOUT_YES`] unless `yes`.
-pub fn confirm_beamforming(
-    images: f64,
-    scene: &usray_transport::Scene,
-    channels: f64,
-    yes: bool,
-) -> Result<()> {
-    let (nz, nx) = usray_optim::grid_shape(scene)?;
-    let terms = images * (nz * nx) as f64 * channels;
-    anyhow::ensure!(
-        yes || terms <= MAX_DAS_TERMS_WITHOUT_YES,
-        "this run would beamform about {terms:.1e} delay-and-sum terms ({images:.0} image(s) of {nz} × {nx} pixels from {channels:.0} records), at least {:.2} core-hours at 9e7 terms/s; use a coarser [imaging] pixel_m or pass --yes to run it",
-        terms / 9e7 / 3600.0
-    );
-    Ok(())
 }
 
 /// A spinner on stderr for long work (hidden with `--quiet` or when stderr is not

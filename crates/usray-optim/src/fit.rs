@@ -176,7 +176,19 @@ pub fn fit_journaled(
     key: &str,
     mut progress: impl FnMut(&FitStep),
 ) -> Result<FitResult, OptimError> {
+    let base_seed = objective
+        .opts
+        .seed
+        .unwrap_or(objective.scene.acquisition.seed);
+    // With fresh random numbers per iteration, iteration k renders with seed
+    // `base + k`, and the objective is left on the last one (the final loss's).
+    let seed_of = |k: usize| base_seed.wrapping_add(k as u64);
     if let Some(done) = journal.get::<FitResult>(key)? {
+        if opts.resample_seed {
+            if let Some(last) = opts.iters.checked_sub(1) {
+                objective.opts.seed = Some(seed_of(last));
+            }
+        }
         done.history.iter().for_each(&mut progress);
         return Ok(done);
     }
@@ -206,22 +218,18 @@ pub fn fit_journaled(
         })
         .collect();
     let mut adam = Adam::new(groups, group_of);
-    let base_seed = objective
-        .opts
-        .seed
-        .unwrap_or(objective.scene.acquisition.seed);
     let mut history = Vec::with_capacity(opts.iters);
     // Seconds already spent before an interruption.
     let mut earlier_s = 0.0;
     if let Some(kept) = journal.get::<FitProgress>(&progress_key)? {
         if kept.state.len() != state.len() || kept.history.len() > opts.iters {
-            return Err(OptimError::Diagnosis(format!(
-                "checkpoint `{progress_key}` does not belong to this fit ({} parameters, {} iterations kept)",
+            return Err(OptimError::Checkpoint(format!(
+                "`{progress_key}` does not belong to this fit ({} parameters, {} iterations kept)",
                 kept.state.len(),
                 kept.history.len()
             )));
         }
-        adam.restore(&kept.adam).map_err(OptimError::Diagnosis)?;
+        adam.restore(&kept.adam).map_err(OptimError::Checkpoint)?;
         state = kept.state;
         history = kept.history;
         history.iter().for_each(&mut progress);
@@ -229,7 +237,7 @@ pub fn fit_journaled(
     }
     for k in history.len()..opts.iters {
         if opts.resample_seed {
-            objective.opts.seed = Some(base_seed.wrapping_add(k as u64));
+            objective.opts.seed = Some(seed_of(k));
         }
         let physical = map.physical(&state);
         let eval = objective.value_and_gradient(&physical)?;
@@ -269,9 +277,10 @@ pub fn fit_journaled(
         progress(history.last().expect("pushed above"));
     }
     if opts.resample_seed {
-        // The final loss on the last iteration's seed, also after a resume.
-        if let Some(k) = opts.iters.checked_sub(1) {
-            objective.opts.seed = Some(base_seed.wrapping_add(k as u64));
+        // The final loss on the last iteration's seed, also after a resume
+        // that kept every iteration.
+        if let Some(last) = opts.iters.checked_sub(1) {
+            objective.opts.seed = Some(seed_of(last));
         }
     }
     let final_params = map.physical(&state);

@@ -60,13 +60,13 @@ impl Journal {
     pub fn open(path: &Path, fingerprint: &str, resume: bool) -> Result<Self, OptimError> {
         let entries = if resume {
             let text = std::fs::read_to_string(path).map_err(|e| {
-                OptimError::Diagnosis(format!(
+                OptimError::Checkpoint(format!(
                     "cannot resume: no checkpoint at {} ({e})",
                     path.display()
                 ))
             })?;
             let bad = |why: &str| {
-                OptimError::Diagnosis(format!("cannot resume from {}: {why}", path.display()))
+                OptimError::Checkpoint(format!("cannot resume from {}: {why}", path.display()))
             };
             let v: serde_json::Value =
                 serde_json::from_str(&text).map_err(|e| bad(&format!("not JSON ({e})")))?;
@@ -131,8 +131,8 @@ impl Journal {
             .get(&key)
             .map(|v| {
                 serde_json::from_value(v.clone()).map_err(|e| {
-                    OptimError::Diagnosis(format!(
-                        "checkpoint {}: entry `{key}` cannot be read back ({e})",
+                    OptimError::Checkpoint(format!(
+                        "{}: entry `{key}` cannot be read back ({e})",
                         store.path.display()
                     ))
                 })
@@ -147,7 +147,7 @@ impl Journal {
         };
         let key = format!("{}{key}", self.prefix);
         let v = serde_json::to_value(value)
-            .map_err(|e| OptimError::Diagnosis(format!("checkpoint entry `{key}`: {e}")))?;
+            .map_err(|e| OptimError::Checkpoint(format!("entry `{key}`: {e}")))?;
         let mut entries = store.entries.lock().map_err(|_| poisoned())?;
         entries.insert(key, v);
         store.write(&entries)
@@ -192,12 +192,12 @@ impl Store {
             "fingerprint": self.fingerprint,
             "entries": entries,
         }))
-        .map_err(|e| OptimError::Diagnosis(format!("checkpoint: {e}")))?;
+        .map_err(|e| OptimError::Checkpoint(e.to_string()))?;
         usray_signal::write_atomic(&self.path, |w| w.write_all(text.as_bytes()))?;
         Ok(())
     }
 }
 
 fn poisoned() -> OptimError {
-    OptimError::Diagnosis("checkpoint: a thread panicked while writing the journal".into())
+    OptimError::Checkpoint("a thread panicked while writing the journal".into())
 }

@@ -98,6 +98,9 @@ pub enum OptimError {
     /// The residual diagnosis got unusable images or options ([`residual`]).
     #[error("diagnosis: {0}")]
     Diagnosis(String),
+    /// A checkpoint ([`Journal`]) cannot be read, written or resumed from.
+    #[error("checkpoint: {0}")]
+    Checkpoint(String),
     /// An optimiser's step left the scene's valid region in a way no projection
     /// repairs: the fit's doing, not the scene file's.
     #[error("fit step: {0}")]

@@ -15,15 +15,18 @@ pub const FRAME_KEY: &str = "frame";
 
 /// The physical ranges [`ChannelMeta::validate`] accepts.
 pub mod limits {
-    /// Sampling and centre frequencies, Hz: `(1 kHz, 10 GHz]`.
+    /// Sampling and centre frequencies, Hz: `(1 kHz, 10 GHz]`; a scene's limit too.
     pub const FREQUENCY_HZ: (f64, f64) = (1e3, 1e10);
-    /// Sound speed, m/s: `(100, 20 000]` (gases to the fastest solids).
+    /// Sound speed, m/s: `(100, 20 000]` (gases to the fastest solids); every
+    /// sound speed of a scene too.
     pub const SOUND_SPEED_M_S: (f64, f64) = (100.0, 20_000.0);
-    /// Element pitch, m: `(0, 100 mm]` (as a scene's `probe.pitch_m`).
+    /// Element pitch, m: `(0, 100 mm]` (arrays have under 2 mm; two separate
+    /// transducers centimetres apart are a test set-up); a scene's limit too.
     pub const PITCH_M: (f64, f64) = (0.0, 0.1);
     /// Largest `|t0_s|`, s.
     pub const MAX_ABS_T0_S: f64 = 1.0;
-    /// Largest `probe.n_elements` (as a scene's `probe.n_elements`).
+    /// Largest `probe.n_elements` (the largest clinical arrays have 256; 2-D
+    /// matrix arrays up to a few thousand); a scene's limit too.
     pub const MAX_ELEMENTS: usize = 4096;
 }
 

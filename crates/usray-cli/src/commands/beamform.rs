@@ -11,7 +11,7 @@ use usray_transport::Scene;
 pub fn run(channels: &Path, scene: &Path, common: &Common) -> Result<()> {
     let scene = Scene::load(scene)?;
     let data = read_channels(channels)?;
-    crate::output::confirm_beamforming(
+    crate::work::confirm_beamforming(
         1.0,
         &scene,
         (data.n_elements() * data.n_transmits()) as f64,

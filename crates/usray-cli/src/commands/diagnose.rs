@@ -91,26 +91,16 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
     // twice over with the paired loss, and the held-out renders of each model.
     let fits = (args.iters * (args.confirm + 2)) as f64 * if args.paired { 2.0 } else { 1.0 };
     let held_out = (args.held_out_seeds * (args.confirm + 3)) as f64;
-    crate::output::confirm_work(fits + held_out, &scene, &opts.render, common.yes)?;
-    let out = OutDir::create(&common.out)?;
-    let checkpoint = out.checkpoint_path(CHECKPOINT);
-    let fingerprint = crate::output::fingerprint(&[
-        &scene,
-        &measured_img,
-        &opts.held_out_measured,
-        &format!(
-            "{:?}",
-            DiagnoseOptions {
-                journal: Default::default(),
-                ..opts.clone()
-            }
-        ),
-        &args.rounds,
-    ]);
-    let opts = DiagnoseOptions {
-        journal: usray_optim::Journal::open(&checkpoint, &fingerprint, args.resume)?,
-        ..opts
-    };
+    crate::work::confirm_work(fits + held_out, &scene, &opts.render, common.yes)?;
+    let mut out = OutDir::create(&common.out)?;
+    // Everything that determines the results: the options (their journal is
+    // still the default, holding no path), the scene, the data, the rounds.
+    let journal = out.journal(
+        CHECKPOINT,
+        &[&scene, &measured_img, &opts, &args.rounds],
+        args.resume,
+    )?;
+    let opts = DiagnoseOptions { journal, ..opts };
     let bar = spinner(common.quiet, "diagnose");
     let t0 = std::time::Instant::now();
     let rounds = diagnose_compound(&scene, &measured_img, &opts, args.rounds, |msg| {
@@ -173,7 +163,6 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         )?,
     )?;
     out.finish()?;
-    crate::output::remove_checkpoint(&checkpoint)?;
     let named: Vec<&str> = rounds.iter().map(|r| r.verdict.effect.as_str()).collect();
     eprintln!(
         "usray diagnose: verdict {} (held-out shrink {:.2}){}; simulation noise {:.0}% of the gap at {} rays; {:.1} s; wrote diagnosis.json, report.md and images to {}",

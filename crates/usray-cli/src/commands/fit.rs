@@ -36,7 +36,7 @@ pub fn run(
 ) -> Result<()> {
     let mut objective = build_objective(scene, reference, params, &args.sampling, common.threads)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
-    crate::output::confirm_work(
+    crate::work::confirm_work(
         args.iters as f64 * if args.paired { 2.0 } else { 1.0 },
         &objective.scene,
         &objective.opts,
@@ -51,21 +51,22 @@ pub fn run(
         resample_seed: args.resample_seed,
         ..Default::default()
     };
-    let out = OutDir::create(&common.out)?;
-    let fingerprint = crate::output::fingerprint(&[
-        &objective.scene,
-        &objective.reference,
-        &objective.specs,
-        &objective.opts,
-        &objective.transmit_batches,
-        &args.paired,
-        &options,
-    ]);
-    let checkpoint = out.checkpoint_path(CHECKPOINT);
-    let journal = Journal::open(&checkpoint, &fingerprint, args.resume)?;
+    let mut out = OutDir::create(&common.out)?;
+    let journal = out.journal(
+        CHECKPOINT,
+        &[
+            &objective.scene,
+            &objective.reference,
+            &objective.specs,
+            &objective.opts,
+            &objective.transmit_batches,
+            &args.paired,
+            &options,
+        ],
+        args.resume,
+    )?;
     let r = run_fit(&mut objective, &options, &out, &journal, common.quiet)?;
     out.finish()?;
-    crate::output::remove_checkpoint(&checkpoint)?;
     eprintln!(
         "usray fit: loss {:.4e} → {:.4e} (×{:.1} lower) in {} iterations, {:.1} s; wrote fit.json, fitted.toml, images and plots to {}",
         r.history[0].loss,

@@ -28,7 +28,7 @@ pub fn run(
     } else {
         0
     };
-    crate::output::confirm_work(
+    crate::work::confirm_work(
         1.0 + sweep_renders as f64,
         &objective.scene,
         &objective.opts,

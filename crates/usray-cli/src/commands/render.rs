@@ -12,7 +12,7 @@ use usray_transport::{render, Scene};
 pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()> {
     let scene = Scene::load(scene_path)?;
     let opts = sampling.render_options(common.threads)?;
-    crate::output::confirm_work(1.0, &scene, &opts, common.yes)?;
+    crate::work::confirm_work(1.0, &scene, &opts, common.yes)?;
     let out = OutDir::create(&common.out)?;
     // The beamformer's set-up is checked before the trace, so a bad imaging grid
     // fails at once rather than after it.

@@ -263,6 +263,10 @@ pub struct Object {
     pub scale: Option<f64>,
 }
 
+/// The lower end of a range that must be positive (the smallest positive
+/// normal `f64`): `within(k, v, (POSITIVE, hi))` is `0 < v ≤ hi`.
+const POSITIVE: f64 = f64::MIN_POSITIVE;
+
 pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     let f = s.source.as_str();
     let err = |k: &str, m: &str| Err(SceneError::new(f, k, m));
@@ -302,14 +306,20 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     // 1e-287 m/s made a record of 1e285 s, blamed on the sampling frequency).
     let within = |k: &str, v: f64, (lo, hi): (f64, f64)| -> Result<(), SceneError> {
         if v >= lo && v <= hi {
-            Ok(())
-        } else {
-            Err(SceneError::new(
-                f,
-                k,
-                format!("expected a value in [{lo:e}, {hi:e}] (usray_transport::scene::limits), found {v}"),
-            ))
+            return Ok(());
         }
+        let low = if lo == POSITIVE {
+            "(0".to_string()
+        } else {
+            format!("[{lo:e}")
+        };
+        Err(SceneError::new(
+            f,
+            k,
+            format!(
+                "expected a value in {low}, {hi:e}] (usray_transport::scene::limits), found {v}"
+            ),
+        ))
     };
     // 2. Medium.
     within(
@@ -338,24 +348,13 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     if p.n_elements == 0 {
         return err("probe.n_elements", "expected at least 1 element");
     }
-    pos("probe.pitch_m", p.pitch_m)?;
-    if p.pitch_m > limits::MAX_PITCH_M {
-        return err(
-            "probe.pitch_m",
-            &format!(
-                "{} m is past the limit of {} m (usray_transport::scene::limits)",
-                p.pitch_m,
-                limits::MAX_PITCH_M
-            ),
-        );
-    }
+    within("probe.pitch_m", p.pitch_m, (POSITIVE, limits::MAX_PITCH_M))?;
     pos("probe.element_width_m", p.element_width_m)?;
     within(
         "probe.center_frequency_hz",
         p.center_frequency_hz,
         limits::FREQUENCY_HZ,
     )?;
-    pos("probe.cycles", p.cycles)?;
     within(
         "probe.cycles",
         p.cycles,
@@ -402,15 +401,17 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     }
     // 5. Imaging.
     let im = &s.imaging;
-    pos("imaging.pixel_m", im.pixel_m)?;
+    within(
+        "imaging.pixel_m",
+        im.pixel_m,
+        (POSITIVE, limits::MAX_PIXEL_M),
+    )?;
     within("imaging.f_number", im.f_number, limits::F_NUMBER)?;
-    pos("imaging.dynamic_range_db", im.dynamic_range_db)?;
     within(
         "imaging.dynamic_range_db",
         im.dynamic_range_db,
         limits::DYNAMIC_RANGE_DB,
     )?;
-    within("imaging.pixel_m", im.pixel_m, (0.0, limits::MAX_PIXEL_M))?;
     if let Some(c) = im.sound_speed_m_s {
         within("imaging.sound_speed_m_s", c, limits::SOUND_SPEED_M_S)?;
     }
@@ -487,8 +488,7 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
         match o.shape {
             ShapeKind::Cylinder | ShapeKind::Sphere => {
                 let r = need("radius_m", o.radius_m)?;
-                pos(&k("radius_m"), r)?;
-                within(&k("radius_m"), r, (0.0, limits::MAX_LENGTH_M))?;
+                within(&k("radius_m"), r, (POSITIVE, limits::MAX_LENGTH_M))?;
                 if let Some(t) = o.thickness_m {
                     if o.shape == ShapeKind::Sphere {
                         return err(
@@ -590,8 +590,8 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
 pub mod limits {
     use super::{Scene, SceneError};
 
-    /// Range of every sound speed, m/s (gases to the fastest solids).
-    pub const SOUND_SPEED_M_S: (f64, f64) = (100.0, 20_000.0);
+    // The ranges a scene shares with channel data are defined once, there.
+    pub use usray_signal::channels::limits::{FREQUENCY_HZ, MAX_ELEMENTS, SOUND_SPEED_M_S};
     /// Range of every impedance, MRayl (air's 4·10⁻⁴ to a rigid mirror's 10⁴ and
     /// beyond).
     pub const IMPEDANCE_MRAYL: (f64, f64) = (1e-5, 1e6);
@@ -604,18 +604,11 @@ pub mod limits {
     /// Range of `imaging.f_number`.
     pub const F_NUMBER: (f64, f64) = (0.0, 100.0);
     /// Range of `imaging.dynamic_range_db`.
-    pub const DYNAMIC_RANGE_DB: (f64, f64) = (0.0, 300.0);
+    pub const DYNAMIC_RANGE_DB: (f64, f64) = (super::POSITIVE, 300.0);
     /// Largest `imaging.pixel_m`, m.
     pub const MAX_PIXEL_M: f64 = 0.01;
-    /// Largest `probe.pitch_m`, m (arrays have under 2 mm; two separate
-    /// transducers a few centimetres apart are a test set-up).
-    pub const MAX_PITCH_M: f64 = 0.1;
-    /// Range of `probe.center_frequency_hz` and
-    /// `acquisition.sampling_frequency_hz`, Hz.
-    pub const FREQUENCY_HZ: (f64, f64) = (1e3, 1e10);
-    /// Largest `probe.n_elements` (the largest clinical arrays have 256; 2-D
-    /// matrix arrays up to a few thousand).
-    pub const MAX_ELEMENTS: usize = 4096;
+    /// Largest `probe.pitch_m`, m (as channel data's).
+    pub const MAX_PITCH_M: f64 = usray_signal::channels::limits::PITCH_M.1;
     /// Largest number of transmits (`acquisition.angles_deg`).
     pub const MAX_TRANSMITS: usize = 1024;
     /// Largest `acquisition.max_bounces`.
