@@ -308,17 +308,15 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
         if v >= lo && v <= hi {
             return Ok(());
         }
-        let low = if lo == POSITIVE {
-            "(0".to_string()
+        let range = if lo == POSITIVE {
+            format!("a positive value up to {hi:e}")
         } else {
-            format!("[{lo:e}")
+            format!("a value in [{lo:e}, {hi:e}]")
         };
         Err(SceneError::new(
             f,
             k,
-            format!(
-                "expected a value in {low}, {hi:e}] (usray_transport::scene::limits), found {v}"
-            ),
+            format!("expected {range} (usray_transport::scene::limits), found {v}"),
         ))
     };
     // 2. Medium.
