@@ -30,11 +30,113 @@ pub mod limits {
     pub const MAX_NESTING: usize = 32;
 }
 
+/// The MATLAB class a numeric array was stored in: the values are converted to
+/// `f64` exactly, but an importer needs the class to state how integer samples
+/// were offset (an unsigned type centred at mid-range is a common export).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NumericClass {
+    /// `double`.
+    Double,
+    /// `single`.
+    Single,
+    /// `int8`.
+    Int8,
+    /// `uint8`.
+    UInt8,
+    /// `int16`.
+    Int16,
+    /// `uint16`.
+    UInt16,
+    /// `int32`.
+    Int32,
+    /// `uint32`.
+    UInt32,
+    /// `int64`.
+    Int64,
+    /// `uint64`.
+    UInt64,
+    /// `logical`.
+    Logical,
+}
+
+impl NumericClass {
+    /// The class of MAT v5 array-class number `class` (6–15), `None` for others.
+    pub fn from_mat_class(class: u8) -> Option<NumericClass> {
+        use NumericClass::*;
+        Some(match class {
+            6 => Double,
+            7 => Single,
+            8 => Int8,
+            9 => UInt8,
+            10 => Int16,
+            11 => UInt16,
+            12 => Int32,
+            13 => UInt32,
+            14 => Int64,
+            15 => UInt64,
+            _ => return None,
+        })
+    }
+    /// The class from its MATLAB name (`"double"`, `"uint8"`, …), as MAT v7.3
+    /// files store it in the `MATLAB_class` attribute.
+    pub fn from_name(name: &str) -> Option<NumericClass> {
+        use NumericClass::*;
+        Some(match name {
+            "double" => Double,
+            "single" => Single,
+            "int8" => Int8,
+            "uint8" => UInt8,
+            "int16" => Int16,
+            "uint16" => UInt16,
+            "int32" => Int32,
+            "uint32" => UInt32,
+            "int64" => Int64,
+            "uint64" => UInt64,
+            "logical" => Logical,
+            _ => return None,
+        })
+    }
+    /// The MATLAB name of the class.
+    pub fn name(self) -> &'static str {
+        use NumericClass::*;
+        match self {
+            Double => "double",
+            Single => "single",
+            Int8 => "int8",
+            UInt8 => "uint8",
+            Int16 => "int16",
+            UInt16 => "uint16",
+            Int32 => "int32",
+            UInt32 => "uint32",
+            Int64 => "int64",
+            UInt64 => "uint64",
+            Logical => "logical",
+        }
+    }
+    /// The value range of an integer class, `None` for floating point and logical.
+    pub fn integer_range(self) -> Option<(f64, f64)> {
+        use NumericClass::*;
+        Some(match self {
+            Int8 => (i8::MIN as f64, i8::MAX as f64),
+            UInt8 => (0.0, u8::MAX as f64),
+            Int16 => (i16::MIN as f64, i16::MAX as f64),
+            UInt16 => (0.0, u16::MAX as f64),
+            Int32 => (i32::MIN as f64, i32::MAX as f64),
+            UInt32 => (0.0, u32::MAX as f64),
+            Int64 => (i64::MIN as f64, i64::MAX as f64),
+            UInt64 => (0.0, u64::MAX as f64),
+            Double | Single | Logical => return None,
+        })
+    }
+}
+
 /// A MATLAB value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum MatValue {
     /// A numeric or logical array, column-major, converted to `f64`.
     Numeric {
+        /// The class the file stored the numbers in (they are held as `f64`).
+        class: NumericClass,
         /// MATLAB dimensions.
         dims: Vec<usize>,
         /// Real part, column-major.
@@ -185,6 +287,7 @@ fn parse_matrix(body: &[u8], depth: usize, budget: &mut Budget) -> R<(String, Ma
         return Ok((
             String::new(),
             MatValue::Numeric {
+                class: NumericClass::Double,
                 dims: vec![0, 0],
                 re: vec![],
                 im: None,
@@ -198,6 +301,7 @@ fn parse_matrix(body: &[u8], depth: usize, budget: &mut Budget) -> R<(String, Ma
     }
     let class = flags[0];
     let complex = flags[1] & 0x08 != 0;
+    let logical = flags[1] & 0x02 != 0;
     if class == 17 || class == 3 || class == 5 {
         return Ok((String::new(), MatValue::Unsupported(class)));
     }
@@ -293,7 +397,17 @@ fn parse_matrix(body: &[u8], depth: usize, budget: &mut Budget) -> R<(String, Ma
                     re.len()
                 ));
             }
-            MatValue::Numeric { dims, re, im }
+            let class = if logical {
+                NumericClass::Logical
+            } else {
+                NumericClass::from_mat_class(class).unwrap_or(NumericClass::Double)
+            };
+            MatValue::Numeric {
+                class,
+                dims,
+                re,
+                im,
+            }
         }
         other => MatValue::Unsupported(other),
     };
@@ -488,7 +602,9 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
         _ => return Err(err("`param.TXdelay` is missing or not numeric".into())),
     }
     let (dims, re) = match get(&vars, "RF") {
-        Some(MatValue::Numeric { dims, re, im: None }) => (dims, re),
+        Some(MatValue::Numeric {
+            dims, re, im: None, ..
+        }) => (dims, re),
         Some(MatValue::Numeric { .. }) => {
             return Err(err("`RF` is complex; real RF expected".into()))
         }
@@ -642,7 +758,10 @@ fn import_fmc(path: &Path, vars: &MatFile, options: &ImportOptions) -> Result<Ch
     let mut sum: Vec<f64> = Vec::new();
     let mut ns = 0;
     for (k, cell) in cells.iter().enumerate() {
-        let MatValue::Numeric { dims, re, im: None } = cell else {
+        let MatValue::Numeric {
+            dims, re, im: None, ..
+        } = cell
+        else {
             return Err(err(format!(
                 "`data{{{}}}` is not a real numeric array",
                 k + 1
