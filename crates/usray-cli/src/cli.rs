@@ -107,21 +107,21 @@ pub enum Command {
         #[command(flatten)]
         common: Common,
     },
-    /// Convert measured data (Verasonics-style MATLAB .mat) into channel data
-    /// (CONTRACT §2), with the time origin moved to CONTRACT §1's clock.
+    /// Convert measured data (a MATLAB .mat file) into channel data (CONTRACT §2),
+    /// with the time origin moved to CONTRACT §1's clock. The acquisition is
+    /// found by content: the parameters under their usual spellings in any struct
+    /// or at the top level, the RF as the largest numeric array with its axes
+    /// matched by the counts. What was used and assumed is printed and kept in
+    /// the output's `source`; the flags override the file.
     Import {
         /// The file to convert.
         file: PathBuf,
         /// Stem of the written files (default: the input's stem).
         #[arg(long)]
         name: Option<String>,
-        /// Element pitch in metres, for files that do not store it (full-matrix
-        /// capture: `ArraySteelPins.mat` needs `--pitch 1e-3`).
-        #[arg(long, value_name = "METRES")]
-        pitch: Option<f64>,
-        /// Centre frequency in Hz, for files that do not store it.
-        #[arg(long, value_name = "HZ")]
-        fc: Option<f64>,
+        /// What the file lacks or stores wrongly.
+        #[command(flatten)]
+        flags: ImportFlags,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,
@@ -297,4 +297,52 @@ impl Command {
             | Command::Diagnose { common, .. } => common,
         }
     }
+}
+
+/// What `usray import` may be told; each value overrides the file's.
+#[derive(clap::Args, Debug)]
+pub struct ImportFlags {
+    /// The RF variable (a top-level name or `struct.field`); default: the largest
+    /// numeric array.
+    #[arg(long, value_name = "NAME")]
+    pub rf: Option<String>,
+    /// The struct holding the acquisition parameters; default: the struct that
+    /// holds most of them.
+    #[arg(long, value_name = "NAME")]
+    pub param: Option<String>,
+    /// The RF array's axes in their stored (MATLAB) order, e.g.
+    /// `samples,elements,transmits` (also `frames`); default: matched by the counts.
+    #[arg(long, value_name = "ORDER")]
+    pub axes: Option<String>,
+    /// Sampling frequency, Hz.
+    #[arg(long, value_name = "HZ")]
+    pub fs: Option<f64>,
+    /// Centre frequency, Hz (default: the file's, else estimated from the spectrum).
+    #[arg(long, value_name = "HZ")]
+    pub fc: Option<f64>,
+    /// Sound speed, m/s.
+    #[arg(long = "c", value_name = "M_PER_S")]
+    pub c: Option<f64>,
+    /// Element pitch, m (full-matrix capture: `ArraySteelPins.mat` needs `--pitch 1e-3`).
+    #[arg(long, value_name = "METRES")]
+    pub pitch: Option<f64>,
+    /// Element width, m (default: the file's, else the pitch).
+    #[arg(long, value_name = "METRES")]
+    pub width: Option<f64>,
+    /// Transmit steering angles in degrees, comma-separated; positive steers
+    /// toward +x (CONTRACT §1).
+    #[arg(
+        long,
+        value_name = "DEG,...",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub angles_deg: Option<Vec<f64>>,
+    /// Time of sample 0 after the first element fires, s (default: the file's, else 0).
+    #[arg(long, value_name = "SECONDS", allow_hyphen_values = true)]
+    pub t0: Option<f64>,
+    /// Offset subtracted from every sample (default: mid-range for unsigned
+    /// integer samples, 128 for uint8; else 0).
+    #[arg(long, value_name = "VALUE", allow_hyphen_values = true)]
+    pub offset: Option<f64>,
 }

@@ -83,6 +83,7 @@ pub mod demod;
 pub mod error;
 pub mod filter;
 pub mod gain;
+pub mod import;
 pub mod io;
 pub mod mat;
 pub mod post;
@@ -91,7 +92,7 @@ pub mod pulse;
 pub use bmode::{BMode, Demod, Image, ImagingSettings, Workspace};
 pub use channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta};
 pub use error::{Result, SignalError};
+pub use import::{import_mat, import_mat_with, ImportOptions};
 pub use io::{read_channels, write_atomic, write_channels};
-pub use mat::{import_mat, import_mat_with, ImportOptions};
 /// Complex sample type used for IQ and analytic data (re-exported from `rustfft`).
 pub use rustfft::num_complex::Complex64;

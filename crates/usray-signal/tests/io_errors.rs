@@ -280,21 +280,30 @@ fn mat_import_maps_and_refuses() {
         mat_file(&[param(0.0, Some("t0")), int16("RF", &[3, 2, 2], &rf)]),
     )
     .unwrap();
-    assert!(import_mat(&p).unwrap_err().to_string().contains("param.t0"));
+    // A missing t0 is assumed 0, and the assumption is recorded.
+    let ch = import_mat(&p).unwrap();
+    assert_eq!(ch.meta.t0_s, 0.0);
+    let source = &ch.meta.extra["source"];
+    assert_eq!(source["used"]["t0_s"], "assumed");
+    assert!(source["assumed"].to_string().contains("time of sample 0"));
+    assert_eq!(source["used"]["sampling_frequency_hz"], "param.fs");
     std::fs::write(&p, mat_file(&[param(0.0, None)])).unwrap();
-    assert!(import_mat(&p).unwrap_err().to_string().contains("`RF`"));
-    std::fs::write(
-        &p,
-        mat_file(&[param(0.0, None), int16("RF", &[2, 3, 2], &rf)]),
-    )
-    .unwrap();
+    assert!(import_mat(&p)
+        .unwrap_err()
+        .to_string()
+        .contains("no RF array"));
+    // No axis of the RF holds `param.Nelements` = 2 elements.
+    std::fs::write(&p, mat_file(&[param(0.0, None), int16("RF", &[3, 4], &rf)])).unwrap();
     assert!(import_mat(&p)
         .unwrap_err()
         .to_string()
         .contains("Nelements"));
     std::fs::write(&p, mat_file(&[int16("data", &[3, 2], &rf[..6])])).unwrap();
     let e = import_mat(&p).unwrap_err().to_string();
-    assert!(e.contains("param") && e.contains("data"), "{e}");
+    assert!(
+        e.contains("no sampling frequency") && e.contains("\"data\"") && e.contains("--fs"),
+        "{e}"
+    );
     // Truncated and non-MAT files: errors, no panic.
     let good = mat_file(&[param(0.0, None), int16("RF", &[3, 2, 2], &rf)]);
     for cut in [10, 130, 200, good.len() - 5] {
@@ -320,8 +329,8 @@ fn real_mat_truncated_is_an_error() {
         let e = import_mat(fmc).unwrap_err().to_string();
         assert!(e.contains("ArraySteelPins.mat") && e.contains("fc"), "{e}");
         let opts = usray_signal::ImportOptions {
-            pitch_m: None,
             center_frequency_hz: Some(3.5e6),
+            ..Default::default()
         };
         let e = usray_signal::import_mat_with(
             usray_testdata::data_file("real/ArraySteelPins.mat").unwrap(),

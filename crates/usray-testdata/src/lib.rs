@@ -88,3 +88,31 @@ pub fn data_file(relative: &str) -> Option<PathBuf> {
     }
     found
 }
+
+/// `python3`, if it runs and imports every module of `modules` (e.g.
+/// `["numpy", "scipy.io"]`), for tests that make or read files with a peer's
+/// Python tools.
+///
+/// Returns `None` and prints a skip notice when Python or a module is missing
+/// outside CI.
+///
+/// # Panics
+/// Under CI (`CI=true`) a missing Python or module panics: `.ci/run` installs
+/// them (`ci/requirements.txt`).
+pub fn python_with(modules: &[&str]) -> Option<PathBuf> {
+    let python = PathBuf::from("python3");
+    let script = format!("import {}", modules.join(", "));
+    let ok = std::process::Command::new(&python)
+        .args(["-c", &script])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        let msg = format!("python3 cannot `{script}` (pip install -r ci/requirements.txt)");
+        if under_ci() {
+            panic!("{msg}; CI=true, so a missing Python module is a failure");
+        }
+        eprintln!("SKIPPED: {msg}");
+        return None;
+    }
+    Some(python)
+}

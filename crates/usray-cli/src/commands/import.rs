@@ -1,39 +1,55 @@
 //! `usray import FILE`: measured data into CONTRACT §2 channel data.
 
-use crate::cli::Common;
+use crate::cli::{Common, ImportFlags};
 use crate::output::OutDir;
 use anyhow::{Context, Result};
 use std::path::Path;
+use usray_signal::import::Axis;
 use usray_signal::{import_mat_with, write_channels, ImportOptions};
 
-/// Converts `file` and writes `NAME.npy`/`NAME.json` into `common.out`, with
-/// `options` supplying what the file does not store.
-pub fn run(
-    file: &Path,
-    name: Option<&str>,
-    options: &ImportOptions,
-    common: &Common,
-) -> Result<()> {
-    for (flag, v) in [
-        ("--pitch", options.pitch_m),
-        ("--fc", options.center_frequency_hz),
-    ] {
-        if let Some(v) = v {
-            anyhow::ensure!(
-                v.is_finite() && v > 0.0,
-                "{flag} must be a positive number, got {v}"
-            );
-        }
+impl ImportFlags {
+    /// The flags as the library's options, checked.
+    pub fn options(&self) -> Result<ImportOptions> {
+        let options = ImportOptions {
+            rf: self.rf.clone(),
+            param: self.param.clone(),
+            axes: self
+                .axes
+                .as_deref()
+                .map(Axis::parse_order)
+                .transpose()
+                .map_err(|e| anyhow::anyhow!("--axes: {e}"))?,
+            sampling_frequency_hz: self.fs,
+            center_frequency_hz: self.fc,
+            sound_speed_m_s: self.c,
+            pitch_m: self.pitch,
+            element_width_m: self.width,
+            angles_rad: self
+                .angles_deg
+                .as_ref()
+                .map(|a| a.iter().map(|d| d.to_radians()).collect()),
+            t0_s: self.t0,
+            sample_offset: self.offset,
+        };
+        options.check().map_err(anyhow::Error::msg)?;
+        Ok(options)
     }
+}
+
+/// Converts `file` and writes `NAME.npy`/`NAME.json` into `common.out`, with
+/// `flags` supplying or overriding what the file stores; prints which variables
+/// were used and what was assumed.
+pub fn run(file: &Path, name: Option<&str>, flags: &ImportFlags, common: &Common) -> Result<()> {
+    let options = flags.options()?;
     let is_mat = file
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
     anyhow::ensure!(
         is_mat,
-        "{}: only MATLAB .mat files (Verasonics-style) can be imported so far",
+        "{}: only MATLAB .mat files can be imported so far",
         file.display()
     );
-    let data = import_mat_with(file, options)?;
+    let data = import_mat_with(file, &options)?;
     let stem = match name {
         Some(n) => n.to_string(),
         None => file
@@ -47,14 +63,49 @@ pub fn run(
     out.finish()?;
     let json = common.out.join(format!("{stem}.json"));
     eprintln!(
-        "usray import: {} → {} ({} transmits × {} elements × {} samples, fs {:.4e} Hz, t0 {:.4e} s on the CONTRACT §1 clock)",
+        "usray import: {} → {} ({} transmits × {} elements × {} samples, fs {:.4e} Hz, fc {:.4e} Hz, c {} m/s, pitch {:.4e} m, t0 {:.4e} s on the CONTRACT §1 clock)",
         file.display(),
         json.display(),
         data.n_transmits(),
         data.n_elements(),
         data.n_samples,
         data.meta.sampling_frequency_hz,
+        data.meta.center_frequency_hz,
+        data.meta.sound_speed_m_s,
+        data.meta.probe.pitch_m,
         data.meta.t0_s
     );
+    eprint!("{}", provenance(&data.meta.extra["source"]));
     Ok(())
+}
+
+/// The import's `source` record as lines: the RF variable and its axes, where
+/// each quantity came from, what was assumed.
+fn provenance(source: &serde_json::Value) -> String {
+    let mut out = String::new();
+    if let Some(rf) = source.get("rf") {
+        out += &format!(
+            "  RF: `{}` ({} {}, axes {})\n",
+            rf["variable"].as_str().unwrap_or("?"),
+            rf["class"].as_str().unwrap_or("?"),
+            rf["dims"],
+            rf["axes"].as_str().unwrap_or("?")
+        );
+    }
+    if let Some(used) = source.get("used").and_then(|u| u.as_object()) {
+        let from: Vec<String> = used
+            .iter()
+            .map(|(k, v)| format!("{k} ← {}", v.as_str().unwrap_or("?")))
+            .collect();
+        out += &format!("  from: {}\n", from.join("; "));
+    }
+    for a in source
+        .get("assumed")
+        .and_then(|a| a.as_array())
+        .into_iter()
+        .flatten()
+    {
+        out += &format!("  assumed: {}\n", a.as_str().unwrap_or("?"));
+    }
+    out
 }

@@ -30,18 +30,9 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
         Command::Import {
             file,
             name,
-            pitch,
-            fc,
+            flags,
             common,
-        } => import::run(
-            file,
-            name.as_deref(),
-            &usray_signal::ImportOptions {
-                pitch_m: *pitch,
-                center_frequency_hz: *fc,
-            },
-            common,
-        ),
+        } => import::run(file, name.as_deref(), flags, common),
         Command::Params { scene, common } => params::run(scene, &common.out),
         Command::Demo { common } => demo::run(common),
         Command::Grad {

@@ -1,0 +1,180 @@
+//! Measured acquisitions into CONTRACT §2 channel data, found by content.
+//!
+//! [`import_mat_with`] reads a MATLAB file ([`crate::mat::read_mat`]) and
+//! recognises, in order:
+//! - a **full-matrix capture** as in `synaptus` (a cell `data{k}` of
+//!   `(time, receive element)` arrays, one per transmitting element, and no
+//!   `param`), summed over transmits to one 0° plane wave;
+//! - otherwise a **plane-wave acquisition**, whatever its variables are called:
+//!   the parameters (sampling frequency, sound speed, pitch, transmit angles,
+//!   centre frequency, …) come from the struct holding most of them, or from
+//!   top-level variables, under any of their usual spellings (`fs`,
+//!   `sampling_frequency`, `TXangle`, `angles_deg`, …); the RF is the largest real
+//!   numeric array, its axes matched to samples × elements × transmits (×
+//!   frames) in any order by the counts the parameters give.
+//!
+//! What the file lacks is either supplied by [`ImportOptions`] (the CLI's flags,
+//! which override the file), assumed with a stated reason (element width = pitch,
+//! t0 = 0, the centre frequency from the data's spectrum), or an error naming
+//! what is missing and the names looked for. Every import records, in the
+//! output's `source`, which variable gave each quantity and what was assumed.
+
+mod axes;
+mod fmc;
+mod plane_wave;
+mod quantities;
+mod samples;
+
+use std::path::Path;
+
+pub use axes::Axis;
+
+use crate::channels::ChannelData;
+use crate::error::{Result, SignalError};
+use crate::mat::read_mat;
+
+/// What the user tells an import: a value given here wins over the file's and
+/// is recorded in the output's `source.overrides`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ImportOptions {
+    /// The RF variable (top-level name, or `struct.field`).
+    pub rf: Option<String>,
+    /// The parameter struct.
+    pub param: Option<String>,
+    /// The roles of the RF array's axes, in its MATLAB order.
+    pub axes: Option<Vec<Axis>>,
+    /// Sampling frequency, Hz.
+    pub sampling_frequency_hz: Option<f64>,
+    /// Centre frequency, Hz.
+    pub center_frequency_hz: Option<f64>,
+    /// Sound speed, m/s.
+    pub sound_speed_m_s: Option<f64>,
+    /// Element pitch, m (full-matrix-capture files do not store it).
+    pub pitch_m: Option<f64>,
+    /// Element width, m.
+    pub element_width_m: Option<f64>,
+    /// Transmit steering angles, radians (CONTRACT §1 sign).
+    pub angles_rad: Option<Vec<f64>>,
+    /// Time of sample 0 after the transmit's time origin (the first element
+    /// firing), s.
+    pub t0_s: Option<f64>,
+    /// Offset subtracted from every sample (default: mid-range for unsigned
+    /// integers, else 0).
+    pub sample_offset: Option<f64>,
+}
+
+impl ImportOptions {
+    /// The values set, as the output's `source.overrides` records them.
+    fn overrides(&self) -> serde_json::Value {
+        let mut m = serde_json::Map::new();
+        let mut put = |k: &str, v: serde_json::Value| {
+            m.insert(k.into(), v);
+        };
+        if let Some(v) = &self.rf {
+            put("rf", v.as_str().into());
+        }
+        if let Some(v) = &self.param {
+            put("param", v.as_str().into());
+        }
+        if let Some(v) = &self.axes {
+            put("axes", axes::join(v).into());
+        }
+        for (k, v) in [
+            ("sampling_frequency_hz", self.sampling_frequency_hz),
+            ("center_frequency_hz", self.center_frequency_hz),
+            ("sound_speed_m_s", self.sound_speed_m_s),
+            ("pitch_m", self.pitch_m),
+            ("element_width_m", self.element_width_m),
+            ("t0_s", self.t0_s),
+            ("sample_offset", self.sample_offset),
+        ] {
+            if let Some(v) = v {
+                put(k, v.into());
+            }
+        }
+        if let Some(v) = &self.angles_rad {
+            put("angles_rad", v.clone().into());
+        }
+        serde_json::Value::Object(m)
+    }
+
+    /// An error naming the first flag that is not a finite number in its
+    /// physical sign (positive, or any finite value for t0, offset and angles).
+    pub fn check(&self) -> std::result::Result<(), String> {
+        for (flag, v) in [
+            ("--fs", self.sampling_frequency_hz),
+            ("--fc", self.center_frequency_hz),
+            ("--c", self.sound_speed_m_s),
+            ("--pitch", self.pitch_m),
+            ("--width", self.element_width_m),
+        ] {
+            if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(format!("{flag} must be a positive number, got {v}"));
+            }
+        }
+        for (flag, v) in [("--t0", self.t0_s), ("--offset", self.sample_offset)] {
+            if let Some(v) = v.filter(|v| !v.is_finite()) {
+                return Err(format!("{flag} must be a finite number, got {v}"));
+            }
+        }
+        if let Some(a) = &self.angles_rad {
+            if let Some(v) = a
+                .iter()
+                .find(|v| !(v.is_finite() && v.abs() < std::f64::consts::FRAC_PI_2))
+            {
+                return Err(format!(
+                    "--angles-deg: {} is not an angle strictly between -90 and 90 degrees",
+                    v.to_degrees()
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Convert a MATLAB `.mat` acquisition into CONTRACT §2 channel data, with
+/// nothing supplied by the user (see [`import_mat_with`]).
+pub fn import_mat(path: impl AsRef<Path>) -> Result<ChannelData> {
+    import_mat_with(path, &ImportOptions::default())
+}
+
+/// Convert a MATLAB `.mat` acquisition into CONTRACT §2 channel data, the layout
+/// found by content (module documentation) and `options` supplying or overriding
+/// what the file stores.
+///
+/// Plane-wave clock (CONTRACT §1): transmit delays are taken to start at 0 on the
+/// first-firing element (Verasonics' and PyMUST's `txdelay` convention), with
+/// sample 0 at the file's `t0` (0 if absent) on that clock; the steered wave then
+/// passes the array centre `(L/2)·|sin θ|/c` later (`L` the aperture), so each
+/// transmit's `t0_s = t0 − (L/2)·|sin θ|/c`. A file's per-element transmit delays,
+/// when present and linear in the element position, give that centre-crossing
+/// time instead (their value at `x = 0`).
+///
+/// Full-matrix capture (`synaptus`): `fs` (MHz), `MWB` (µs, time of sample 0
+/// after the excitation), `cp` (m/s), `nTotElem`, optional `fc` (Hz); the sum
+/// over transmits `Σ_k data{k}` is the 0° plane wave fired by all elements at
+/// once, so `t0_s = MWB`. The pitch is required from `options.pitch_m`; the
+/// element width is set to the pitch.
+///
+/// Errors name the file and what is missing or unmappable.
+pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Result<ChannelData> {
+    let path = path.as_ref();
+    options.check().map_err(|w| SignalError::format(path, w))?;
+    let vars = read_mat(path)?;
+    if options.rf.is_none() && fmc::is_full_matrix_capture(&vars) {
+        return fmc::import(path, &vars, options);
+    }
+    plane_wave::import(path, &vars, options)
+}
+
+/// `data` if it passes [`ChannelData::validate`] (every field in its physical
+/// range, samples present and finite), else an error naming `path`.
+fn validated(path: &Path, data: ChannelData) -> Result<ChannelData> {
+    data.validate().map_err(|w| {
+        SignalError::format(
+            path,
+            format!("the imported data are not valid channel data: {w}"),
+        )
+    })?;
+    Ok(data)
+}
