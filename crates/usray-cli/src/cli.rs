@@ -185,6 +185,11 @@ pub enum Command {
         /// surface's roughness low at few rays). Twice the renders per iteration.
         #[arg(long)]
         paired: bool,
+        /// True values of fitted parameters where known (a synthetic reference),
+        /// `PATH=VALUE` comma-separated, in the scene's units: drawn as dashed
+        /// lines in params.png. They do not enter the fit.
+        #[arg(long, value_delimiter = ',', value_name = "PATH=VALUE")]
+        truth: Vec<String>,
         /// Continue the fit killed in DIR (its `--out`) from its checkpoint
         /// (`fit.checkpoint.json`, written after every iteration), to the same
         /// results as an uninterrupted run; the other arguments must be the same.

@@ -157,6 +157,29 @@ fn fit_writes_every_output() {
             .status
             .success()
     );
+    // render: the raw B-mode (one pixel per grid point: 21 × 31 on the tiny
+    // grid) and its figure, as PNG and SVG.
+    let raw = image::open(refdir.join("bmode.png")).unwrap();
+    assert_eq!((raw.width(), raw.height()), (21, 31));
+    let figure = image::open(refdir.join("bmode_figure.png")).unwrap();
+    assert!(figure.width() >= 600, "{} px wide", figure.width());
+    let svg = std::fs::read_to_string(refdir.join("bmode_figure.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    // A true value for a parameter that is not fitted is refused.
+    let bad = usray(&[
+        "fit",
+        s,
+        "--reference",
+        refdir.join("channels.json").to_str().unwrap(),
+        "--params",
+        "materials.target.roughness=0.1:0.9",
+        "--truth",
+        "objects.cylinder.radius_m=0.005",
+        "--out",
+        dir.path().join("bad").to_str().unwrap(),
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--truth"));
     let out = dir.path().join("f");
     let o = usray(&[
         "fit",
@@ -165,6 +188,8 @@ fn fit_writes_every_output() {
         refdir.join("channels.json").to_str().unwrap(),
         "--params",
         "materials.target.roughness=0.1:0.9",
+        "--truth",
+        "materials.target.roughness=0.5",
         "--iters",
         "3",
         "--out",
@@ -176,8 +201,11 @@ fn fit_writes_every_output() {
         "fit.json",
         "fitted.toml",
         "initial.png",
+        "initial.npy",
         "final.png",
+        "final.npy",
         "reference.png",
+        "reference.npy",
         "overlay_initial.png",
         "overlay_final.png",
         "loss.png",
@@ -278,8 +306,11 @@ fn diagnose_writes_report_with_parameter_spreads() {
         "diagnosis.json",
         "report.md",
         "measured.png",
+        "measured.npy",
         "calibrated.png",
+        "calibrated.npy",
         "after.png",
+        "after.npy",
         "residual_calibrated.png",
         "residual_after.png",
     ] {

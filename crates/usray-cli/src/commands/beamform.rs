@@ -1,4 +1,5 @@
-//! `usray beamform CHANNELS --scene SCENE`: B-mode from any channel data.
+//! `usray beamform CHANNELS --scene SCENE`: B-mode (data, image and figure)
+//! from any channel data.
 
 use crate::cli::Common;
 use crate::output::OutDir;
@@ -18,10 +19,11 @@ pub fn run(channels: &Path, scene: &Path, common: &Common) -> Result<()> {
         common.yes,
     )?;
     let out = OutDir::create(&common.out)?;
-    let (nz, nx) = super::render::beamform_to(&scene, &data, &out)?;
+    let title = super::render::figure_title(channels);
+    let (nz, nx) = super::render::beamform_to(&scene, &data, &out, &title)?;
     out.finish()?;
     eprintln!(
-        "usray beamform: {} transmits × {} elements × {} samples → B-mode {nz}×{nx}; wrote bmode.npy and bmode.png to {}",
+        "usray beamform: {} transmits × {} elements × {} samples → B-mode {nz}×{nx}; wrote bmode.npy, bmode.png and bmode_figure.png/.svg to {}",
         data.n_transmits(),
         data.n_elements(),
         data.n_samples,

@@ -2,11 +2,14 @@
 //! command line, finite-difference sweeps, and the files a fit writes.
 
 use crate::output::OutDir;
-use crate::plots::{line_plot, overlay_png, Scale, Series};
+use crate::plots::{
+    bmode_figure, line_figure, overlay_figure, param_name, param_unit, Axis, Grid, Panel, Scale,
+    Series,
+};
 use anyhow::{Context, Result};
 use serde_json::{json, Map, Value};
 use usray_optim::{fd_sweep, log_steps, FdPoint, FitOptions, FitResult, Objective, ParamSpec};
-use usray_signal::io::write_bmode_png;
+use usray_signal::io::write_bmode_npy;
 use usray_transport::Scene;
 
 /// Parses `--params` entries (`PATH` or `PATH=MIN:MAX`) against `scene`: every path
@@ -125,7 +128,8 @@ pub fn grad_json(
 }
 
 /// The paper's FD-vs-AD figures, per parameter: `fd_<path>.png` (FD and AD vs ε,
-/// log ε) and `fd_error_<path>.png` (|FD − AD| vs ε, log–log). Returns the names.
+/// log ε) and `fd_error_<path>.png` (|FD − AD| vs ε, log–log), in the units
+/// the parameter is shown in ([`param_unit`]). Returns the names.
 pub fn write_sweep_plots(
     out: &OutDir,
     specs: &[ParamSpec],
@@ -134,37 +138,70 @@ pub fn write_sweep_plots(
 ) -> Result<Vec<String>> {
     let mut names = Vec::new();
     for ((s, &ad), sw) in specs.iter().zip(gradient).zip(sweeps) {
+        let unit = param_unit(&s.path);
+        let per_unit = if unit.name == "dimensionless" {
+            "dimensionless".to_string()
+        } else {
+            format!("1/{}", unit.name)
+        };
+        let step_label = format!("step ε ({})", unit.name);
+        let step = Axis {
+            label: &step_label,
+            scale: Scale::Log,
+        };
+        // ∂L/∂θ per shown unit: the loss is dimensionless.
+        let shown = |g: f64| g / unit.per_si;
         let a = format!("fd_{}.png", slug(&s.path));
-        line_plot(
+        line_figure(
             &out.path(&a),
             &format!("{}: FD and AD vs ε", s.path),
-            "ε (parameter units)",
-            "∂L/∂θ",
-            &[
-                Series {
-                    name: "central FD".into(),
-                    points: sw.iter().map(|p| (p.eps, p.fd)).collect(),
+            &[Panel {
+                caption: "",
+                x: step,
+                y: Axis {
+                    label: &format!("∂L/∂θ ({per_unit})"),
+                    scale: Scale::Linear,
                 },
-                Series {
-                    name: "AD".into(),
-                    points: sw.iter().map(|p| (p.eps, ad)).collect(),
-                },
-            ],
-            Scale::Log,
-            Scale::Linear,
+                series: &[
+                    Series {
+                        name: "central FD".into(),
+                        points: sw
+                            .iter()
+                            .map(|p| (p.eps * unit.per_si, shown(p.fd)))
+                            .collect(),
+                        truth: None,
+                    },
+                    Series {
+                        name: "AD".into(),
+                        points: sw
+                            .iter()
+                            .map(|p| (p.eps * unit.per_si, shown(ad)))
+                            .collect(),
+                        truth: None,
+                    },
+                ],
+            }],
         )?;
         let b = format!("fd_error_{}.png", slug(&s.path));
-        line_plot(
+        line_figure(
             &out.path(&b),
             &format!("{}: |FD − AD| vs ε", s.path),
-            "ε (parameter units)",
-            "|g_FD − g_AD|",
-            &[Series {
-                name: "|FD − AD|".into(),
-                points: sw.iter().map(|p| (p.eps, (p.fd - ad).abs())).collect(),
+            &[Panel {
+                caption: "",
+                x: step,
+                y: Axis {
+                    label: &format!("|FD − AD| ({per_unit})"),
+                    scale: Scale::Log,
+                },
+                series: &[Series {
+                    name: "|FD − AD|".into(),
+                    points: sw
+                        .iter()
+                        .map(|p| (p.eps * unit.per_si, shown((p.fd - ad).abs())))
+                        .collect(),
+                    truth: None,
+                }],
             }],
-            Scale::Log,
-            Scale::Log,
         )?;
         names.push(a);
         names.push(b);
@@ -172,8 +209,30 @@ pub fn write_sweep_plots(
     Ok(names)
 }
 
-/// Everything a fit writes next to `fit.json`: images, overlays, plots,
-/// `fitted.toml`. `initial`/`final_` are the B-modes at the start and the end.
+/// Writes a B-mode as `NAME.npy` (the data, float32 `[nz, nx]`) and `NAME.png`
+/// (its figure: mm axes, dB colour bar, `title`).
+pub fn write_bmode_files(
+    out: &OutDir,
+    name: &str,
+    grid: &Grid,
+    data: &[f64],
+    dynamic_range_db: f64,
+    title: &str,
+) -> Result<()> {
+    write_bmode_npy(out.path(&format!("{name}.npy")), grid.nz, grid.nx, data)?;
+    bmode_figure(
+        &out.path(&format!("{name}.png")),
+        grid,
+        data,
+        dynamic_range_db,
+        title,
+    )
+}
+
+/// Everything a fit writes next to `fit.json`: images (figure and data),
+/// overlays, plots, `fitted.toml`. `initial`/`final_` are the B-modes at the
+/// start and the end; `truth` holds each parameter's true value where known
+/// (drawn as dashed lines in `params.png`).
 pub fn write_fit_outputs(
     out: &OutDir,
     objective: &Objective,
@@ -182,72 +241,50 @@ pub fn write_fit_outputs(
     options: &FitOptions,
     initial: &[f64],
     final_: &[f64],
+    truth: &[Option<f64>],
 ) -> Result<()> {
-    let (nz, nx) = objective.shape()?;
-    let specs = &objective.specs;
-    write_bmode_png(out.path("initial.png"), nz, nx, initial)?;
-    write_bmode_png(out.path("final.png"), nz, nx, final_)?;
-    write_bmode_png(out.path("reference.png"), nz, nx, &objective.reference)?;
-    overlay_png(
+    let settings = objective.scene.imaging_settings();
+    let grid = Grid::from_settings(&settings)?;
+    let db = settings.dynamic_range_db;
+    write_bmode_files(
+        out,
+        "initial",
+        &grid,
+        initial,
+        db,
+        "Initial: the start parameters",
+    )?;
+    write_bmode_files(
+        out,
+        "final",
+        &grid,
+        final_,
+        db,
+        "Final: the fitted parameters",
+    )?;
+    write_bmode_files(
+        out,
+        "reference",
+        &grid,
+        &objective.reference,
+        db,
+        "Reference",
+    )?;
+    overlay_figure(
         &out.path("overlay_initial.png"),
-        nz,
-        nx,
+        &grid,
         initial,
         &objective.reference,
+        "Initial",
     )?;
-    overlay_png(
+    overlay_figure(
         &out.path("overlay_final.png"),
-        nz,
-        nx,
+        &grid,
         final_,
         &objective.reference,
+        "Final",
     )?;
-    let mut loss_pts: Vec<(f64, f64)> = result
-        .history
-        .iter()
-        .map(|h| (h.iter as f64, h.loss))
-        .collect();
-    loss_pts.push((result.history.len() as f64, result.final_loss));
-    line_plot(
-        &out.path("loss.png"),
-        "Loss (weighted ℓ1 + ℓ2)",
-        "iteration",
-        "loss",
-        &[Series {
-            name: "loss".into(),
-            points: loss_pts,
-        }],
-        Scale::Linear,
-        Scale::Log,
-    )?;
-    let series: Vec<Series> = specs
-        .iter()
-        .enumerate()
-        .map(|(j, s)| {
-            let mut points: Vec<(f64, f64)> = result
-                .history
-                .iter()
-                .map(|h| (h.iter as f64, s.normalised(h.params[j])))
-                .collect();
-            points.push((
-                result.history.len() as f64,
-                s.normalised(result.final_params[j]),
-            ));
-            Series {
-                name: s.path.clone(),
-                points,
-            }
-        })
-        .collect();
-    line_plot(
-        &out.path("params.png"),
-        "Parameters, normalised to their ranges (θ − min)/(max − min)",
-        "iteration",
-        "normalised value",
-        &series,
-        Scale::Linear,
-        Scale::Linear,
-    )?;
+    write_history_plots(out, objective, result, truth)?;
     let fitted = objective.scene_at(&result.final_params)?;
     let toml = fitted.to_toml_string();
     // The writer must round-trip: parse it back and compare.
@@ -262,6 +299,83 @@ pub fn write_fit_outputs(
     out.write_text("fitted.toml", &toml)?;
     out.write_json("fit.json", &fit_json(objective, start, result, options))?;
     Ok(())
+}
+
+/// `loss.png` (loss per iteration, log scale) and `params.png` (one panel per
+/// parameter, in its unit, with its true value dashed where known). Iteration
+/// `len(history)` is the final point.
+fn write_history_plots(
+    out: &OutDir,
+    objective: &Objective,
+    result: &FitResult,
+    truth: &[Option<f64>],
+) -> Result<()> {
+    let iteration = Axis {
+        label: "iteration",
+        scale: Scale::Count,
+    };
+    let last = result.history.len() as f64;
+    let mut loss_pts: Vec<(f64, f64)> = result
+        .history
+        .iter()
+        .map(|h| (h.iter as f64, h.loss))
+        .collect();
+    loss_pts.push((last, result.final_loss));
+    line_figure(
+        &out.path("loss.png"),
+        "Loss (weighted ℓ1 + ℓ2 of the grey levels, per pixel)",
+        &[Panel {
+            caption: "",
+            x: iteration,
+            y: Axis {
+                label: "loss (dimensionless)",
+                scale: Scale::Log,
+            },
+            series: &[Series {
+                name: "loss".into(),
+                points: loss_pts,
+                truth: None,
+            }],
+        }],
+    )?;
+    let specs = &objective.specs;
+    let labels: Vec<String> = specs
+        .iter()
+        .map(|s| format!("{} ({})", param_name(&s.path), param_unit(&s.path).name))
+        .collect();
+    let series: Vec<[Series; 1]> = specs
+        .iter()
+        .enumerate()
+        .map(|(j, s)| {
+            let per_si = param_unit(&s.path).per_si;
+            let mut points: Vec<(f64, f64)> = result
+                .history
+                .iter()
+                .map(|h| (h.iter as f64, h.params[j] * per_si))
+                .collect();
+            points.push((last, result.final_params[j] * per_si));
+            [Series {
+                name: "fit".into(),
+                points,
+                truth: truth.get(j).copied().flatten().map(|t| t * per_si),
+            }]
+        })
+        .collect();
+    let panels: Vec<Panel> = specs
+        .iter()
+        .zip(&labels)
+        .zip(&series)
+        .map(|((s, label), series)| Panel {
+            caption: &s.path,
+            x: iteration,
+            y: Axis {
+                label,
+                scale: Scale::Linear,
+            },
+            series,
+        })
+        .collect();
+    line_figure(&out.path("params.png"), "Parameters per iteration", &panels)
 }
 
 /// `fit.json`: parameters with ranges, `history` (loss and every parameter per

@@ -112,6 +112,7 @@ pub fn run(common: &Common) -> Result<()> {
         &out,
         &usray_optim::Journal::default(),
         common.quiet,
+        &truth.iter().copied().map(Some).collect::<Vec<_>>(),
     )?;
     let wall = t_all.elapsed().as_secs_f64();
 
@@ -151,7 +152,7 @@ pub fn run(common: &Common) -> Result<()> {
     writeln!(r, "- Size: {DEMO_RAYS} rays per element × 128 elements × 5 angles per render (common random numbers: seed {} every iteration), image grid {} × {} pixels of {DEMO_PIXEL_M:e} m, {DEMO_ITERS} Adam iterations.", objective.scene.acquisition.seed, objective.shape()?.0, objective.shape()?.1)?;
     writeln!(r, "- Start: radius +20%, impedance −25%, roughness ×2. Ranges are the documented default ranges around the *start* (`usray_optim::default_range`), so the truth is not given away by the range.")?;
     writeln!(r, "- Adam: learning rates {} (material: impedance, roughness) and {} (geometry: radius), in fractions of each range per step, decaying exponentially to {}× by the last iteration; gradient clipped at {}× the first iteration's norm.\n", options.lr_material, options.lr_geometry, options.lr_final_fraction, options.clip_factor.unwrap_or(f64::INFINITY))?;
-    writeln!(r, "| loss history | normalised parameter histories |\n|---|---|\n| ![loss](loss.png) | ![params](params.png) |\n")?;
+    writeln!(r, "| loss history | parameter histories (true values dashed) |\n|---|---|\n| ![loss](loss.png) | ![params](params.png) |\n")?;
     writeln!(r, "| initial | final | reference |\n|---|---|---|\n| ![initial](initial.png) | ![final](final.png) | ![reference](reference.png) |\n")?;
     writeln!(r, "Overlays (simulated in green, reference in red, agreement yellow, the paper's figure): before ![overlay initial](overlay_initial.png) after ![overlay final](overlay_final.png)\n")?;
     writeln!(r, "## Gradient check at the start\n")?;
@@ -175,7 +176,7 @@ pub fn run(common: &Common) -> Result<()> {
         writeln!(r, "![{}]({}) ![{}]({})", pair[0], pair[0], pair[1], pair[1])?;
     }
     writeln!(r, "\nHow to read this check. The AD gradient is the exact derivative of the fixed-seed realisation: every continuous step of every path is differentiated, the sampled microfacet normals and MIS weights included, and paths split at interfaces instead of choosing reflection or transmission with a parameter-dependent probability. At small steps the finite differences agree with it to round-off. At large steps they also see what the gradient by definition does not: visibility changes (a ray moving across an element edge or a surface's silhouette), which make the loss jump, plus the usual truncation error. Since the estimator is unbiased for every parameter value and smooth in it, the same derivative is an unbiased estimate of the derivative of the expected image.\n")?;
-    writeln!(r, "## Files\n\n`fit.json` (history: loss and every parameter per iteration; final), `fitted.toml` (the scene with the fitted values), `grad.json`, the images and plots above.")?;
+    writeln!(r, "## Files\n\n`fit.json` (history: loss and every parameter per iteration; final), `fitted.toml` (the scene with the fitted values), `grad.json`, the figures above, and the B-modes' data as `initial.npy`, `final.npy` and `reference.npy`.")?;
     out.write_text("report.md", &r)?;
     out.finish()?;
     eprintln!(

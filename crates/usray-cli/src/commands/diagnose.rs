@@ -3,12 +3,11 @@
 
 use crate::cli::{Common, Sampling};
 use crate::output::{spinner, OutDir};
-use crate::plots::residual_png;
+use crate::plots::{residual_figure, Grid};
 use anyhow::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 use usray_optim::{diagnose_compound, DiagnoseOptions, Diagnosis};
-use usray_signal::io::write_bmode_png;
 use usray_transport::Scene;
 
 /// Settings of `usray diagnose`.
@@ -72,7 +71,6 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
             .transpose()?;
         (usray_optim::load_reference(measured, &scene)?, held)
     };
-    let (nz, nx) = usray_optim::grid_shape(&scene)?;
     let opts = DiagnoseOptions {
         free_params: args.params.clone(),
         calibration_iters: args.iters,
@@ -133,22 +131,30 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
             .collect(),
     );
     out.write_json("diagnosis.json", &json)?;
-    write_bmode_png(out.path("measured.png"), nz, nx, &measured_img)?;
-    write_bmode_png(out.path("calibrated.png"), nz, nx, &d.calibrated_image)?;
-    write_bmode_png(out.path("after.png"), nz, nx, &d.after_image)?;
-    let scale_before = residual_png(
+    let settings = scene.imaging_settings();
+    let grid = Grid::from_settings(&settings)?;
+    let db = settings.dynamic_range_db;
+    let bmode = |name: &str, data: &[f64], title: &str| {
+        super::calib::write_bmode_files(&out, name, &grid, data, db, title)
+    };
+    bmode("measured", &measured_img, "Measured")?;
+    bmode("calibrated", &d.calibrated_image, "Calibrated model")?;
+    bmode("after", &d.after_image, "After the verdict's refit")?;
+    let scale_before = residual_figure(
         &out.path("residual_calibrated.png"),
-        nz,
-        nx,
+        &grid,
         &d.calibrated_image,
         &measured_img,
+        db,
+        "Residual of the calibrated model",
     )?;
-    let scale_after = residual_png(
+    let scale_after = residual_figure(
         &out.path("residual_after.png"),
-        nz,
-        nx,
+        &grid,
         &d.after_image,
         &measured_img,
+        db,
+        "Residual after the verdict's refit",
     )?;
     out.write_text(
         "report.md",
@@ -321,7 +327,7 @@ fn report(
     }
     writeln!(r, "| measured | calibrated | after the verdict's refit |\n|---|---|---|\n| ![measured](measured.png) | ![calibrated](calibrated.png) | ![after](after.png) |\n")?;
     writeln!(r, "## 2. Where the residual lies\n")?;
-    writeln!(r, "Signed residual (red: simulation brighter, blue: darker; saturates at ±{scale_before:.3} grey levels before, ±{scale_after:.3} after):\n\n| calibrated | after |\n|---|---|\n| ![residual](residual_calibrated.png) | ![residual after](residual_after.png) |\n")?;
+    writeln!(r, "Signed residual (red: simulation brighter, blue: darker; saturates at ±{scale_before:.3} grey levels, ±{:.1} dB, before and ±{scale_after:.3}, ±{:.1} dB, after; the colour bars read dB):\n\n| calibrated | after |\n|---|---|\n| ![residual](residual_calibrated.png) | ![residual after](residual_after.png) |\n", scale_before * base.imaging.dynamic_range_db, scale_after * base.imaging.dynamic_range_db)?;
     writeln!(
         r,
         "| partition | region | share of the loss |\n|---|---|---|"

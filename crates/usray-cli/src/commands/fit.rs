@@ -3,9 +3,9 @@
 use super::calib::{build_objective, progress_bar, write_fit_outputs};
 use crate::cli::{Common, Sampling};
 use crate::output::OutDir;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use std::path::Path;
-use usray_optim::{fit_journaled, FitOptions, Journal, Objective};
+use usray_optim::{fit_journaled, FitOptions, Journal, Objective, ParamSpec};
 
 /// Settings of `usray fit` beyond the objective.
 pub struct FitArgs {
@@ -17,6 +17,8 @@ pub struct FitArgs {
     pub batches: usize,
     /// The paired loss (two renders with independent seeds).
     pub paired: bool,
+    /// `--truth` entries, `PATH=VALUE`.
+    pub truth: Vec<String>,
     /// Rays, seed and sampler.
     pub sampling: Sampling,
     /// Continue from the checkpoint in `--out`.
@@ -35,6 +37,7 @@ pub fn run(
     common: &Common,
 ) -> Result<()> {
     let mut objective = build_objective(scene, reference, params, &args.sampling, common.threads)?;
+    let truth = parse_truth(&objective.specs, &args.truth)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
     crate::work::confirm_work(
         args.iters as f64 * if args.paired { 2.0 } else { 1.0 },
@@ -65,7 +68,14 @@ pub fn run(
         ],
         args.resume,
     )?;
-    let r = run_fit(&mut objective, &options, &out, &journal, common.quiet)?;
+    let r = run_fit(
+        &mut objective,
+        &options,
+        &out,
+        &journal,
+        common.quiet,
+        &truth,
+    )?;
     out.finish()?;
     eprintln!(
         "usray fit: loss {:.4e} → {:.4e} (×{:.1} lower) in {} iterations, {:.1} s; wrote fit.json, fitted.toml, images and plots to {}",
@@ -77,6 +87,29 @@ pub fn run(
         common.out.display()
     );
     Ok(())
+}
+
+/// Each fitted parameter's true value from `--truth` entries (`PATH=VALUE`),
+/// `None` where not given; a path that is not fitted is an error.
+pub fn parse_truth(specs: &[ParamSpec], entries: &[String]) -> Result<Vec<Option<f64>>> {
+    let mut truth = vec![None; specs.len()];
+    for entry in entries {
+        let (path, value) = entry
+            .split_once('=')
+            .with_context(|| format!("--truth: `{entry}` is not PATH=VALUE"))?;
+        let j = specs
+            .iter()
+            .position(|s| s.path == path.trim())
+            .with_context(|| format!("--truth: `{}` is not one of --params", path.trim()))?;
+        let v: f64 = value
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .with_context(|| format!("--truth: `{entry}`: the value is not a finite number"))?;
+        truth[j] = Some(v);
+    }
+    Ok(truth)
 }
 
 /// Splits the scene's transmits into `n` contiguous micro-batches.
@@ -97,13 +130,14 @@ pub fn set_batches(objective: &mut Objective, n: usize) -> Result<()> {
 }
 
 /// Fits from the scene's current values with a progress bar and writes every
-/// output of a fit.
+/// output of a fit; `truth` holds each parameter's true value where known.
 pub fn run_fit(
     objective: &mut Objective,
     options: &FitOptions,
     out: &OutDir,
     journal: &Journal,
     quiet: bool,
+    truth: &[Option<f64>],
 ) -> Result<usray_optim::FitResult> {
     let start = objective.initial_physical();
     let initial = objective.value(&start)?.image.data;
@@ -122,6 +156,7 @@ pub fn run_fit(
         options,
         &initial,
         &final_image,
+        truth,
     )?;
     Ok(result)
 }

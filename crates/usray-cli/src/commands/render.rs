@@ -2,6 +2,7 @@
 
 use crate::cli::{Common, Sampling};
 use crate::output::{spinner, OutDir};
+use crate::plots::{bmode_figure, Grid};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::Path;
@@ -26,7 +27,7 @@ pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()
     let (channels, stats) = render(&scene, &opts)?;
     bar.finish_and_clear();
     write_channels(out.path("channels.json"), &channels)?;
-    let bmode = beamform_to(&scene, &channels, &out)?;
+    let bmode = beamform_to(&scene, &channels, &out, &figure_title(scene_path))?;
     let info = json!({
         "scene": scene_path.display().to_string(),
         "seed": opts.seed.unwrap_or(scene.acquisition.seed),
@@ -42,7 +43,7 @@ pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()
     out.write_json("render.json", &info)?;
     out.finish()?;
     eprintln!(
-        "usray render: traced {} rays in {:.2} s ({:.3e} rays/s); wrote channels, bmode.npy/.png and render.json to {}",
+        "usray render: traced {} rays in {:.2} s ({:.3e} rays/s); wrote channels, bmode.npy/.png, the B-mode figure and render.json to {}",
         stats.rays_traced,
         stats.seconds,
         stats.rays_per_second,
@@ -51,9 +52,22 @@ pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()
     Ok(())
 }
 
+/// The B-mode figure's title: "B-mode of" the file it came from.
+pub fn figure_title(source: &Path) -> String {
+    let name = source.file_name().unwrap_or(source.as_os_str());
+    format!("B-mode of {}", name.to_string_lossy())
+}
+
 /// Forms the B-mode of `channels` on the scene's imaging grid and writes
-/// `bmode.npy` and `bmode.png`; returns `(nz, nx)`.
-pub fn beamform_to(scene: &Scene, channels: &ChannelData, out: &OutDir) -> Result<(usize, usize)> {
+/// `bmode.npy` (the data), `bmode.png` (one grey pixel per grid point) and the
+/// figure `bmode_figure.png`/`.svg` (mm axes, dB colour bar, `title`); returns
+/// `(nz, nx)`.
+pub fn beamform_to(
+    scene: &Scene,
+    channels: &ChannelData,
+    out: &OutDir,
+    title: &str,
+) -> Result<(usize, usize)> {
     let settings = scene.imaging_settings();
     let op = BMode::new(&settings, &channels.meta, channels.n_samples)
         .context("setting up the beamformer from the scene's [imaging]")?;
@@ -61,5 +75,15 @@ pub fn beamform_to(scene: &Scene, channels: &ChannelData, out: &OutDir) -> Resul
     let image = op.forward(channels, &mut ws)?;
     image.write_npy(out.path("bmode.npy"))?;
     image.write_png(out.path("bmode.png"))?;
+    let grid = Grid::from_settings(&settings)?;
+    for name in ["bmode_figure.png", "bmode_figure.svg"] {
+        bmode_figure(
+            &out.path(name),
+            &grid,
+            &image.data,
+            settings.dynamic_range_db,
+            title,
+        )?;
+    }
     Ok((image.nz, image.nx))
 }
