@@ -180,6 +180,8 @@ pub struct BMode {
     /// image per frame.
     pub das: Das,
     demod: Option<IqDemod>,
+    /// Per transmit, the IQ mixing phases of its records ([`IqDemod::mixing`]).
+    mixing: Vec<Vec<(f64, f64)>>,
     analytic: Option<Analytic>,
     gain: Option<Vec<f64>>,
     n_elements: usize,
@@ -307,10 +309,14 @@ impl BMode {
             }
             g
         });
+        let mixing = demod.as_ref().map_or_else(Vec::new, |d| {
+            das.t0_s.iter().map(|&t0| d.mixing(t0, n_samples)).collect()
+        });
         Ok(BMode {
             settings: settings.clone(),
             das,
             demod,
+            mixing,
             analytic,
             gain,
             n_elements: meta.probe.n_elements,
@@ -411,7 +417,6 @@ impl BMode {
         ws.has_forward = false;
         let ns = self.das.n_samples;
         let ne = self.n_elements;
-        let fs = self.das.fs_hz;
         // 1–2. gain and demodulation, per record.
         let gain = self.gain.as_deref();
         ws.cx.par_chunks_mut(ns).enumerate().for_each_init(
@@ -419,37 +424,25 @@ impl BMode {
                 (
                     vec![0.0; ns],
                     vec![0.0; ns],
+                    vec![0.0; if gain.is_some() { ns } else { 0 }],
                     self.analytic
                         .as_ref()
                         .map(|a| vec![Complex64::new(0.0, 0.0); a.scratch_len()]),
                 )
             },
-            |(re, im, fsc), (rec, out)| {
+            |(re, im, gained, fsc), (rec, out)| {
                 let t = rec / ne;
-                let src = &ch.samples[rec * ns..(rec + 1) * ns];
-                match gain {
-                    Some(g) => {
-                        for (k, v) in re.iter_mut().enumerate() {
-                            *v = src[k] * g[t * ns + k];
-                        }
+                let mut src = &ch.samples[rec * ns..(rec + 1) * ns];
+                if let Some(g) = gain {
+                    for (k, v) in gained.iter_mut().enumerate() {
+                        *v = src[k] * g[t * ns + k];
                     }
-                    None => re.copy_from_slice(src),
+                    src = gained;
                 }
                 if let Some(d) = &self.demod {
-                    let t0 = self.das.t0_s[t];
-                    let w = 2.0 * core::f64::consts::PI * d.fc;
-                    for (n, v) in re.iter_mut().enumerate() {
-                        let (s, c) = (w * (t0 + n as f64 / fs)).sin_cos();
-                        im[n] = -*v * s;
-                        *v *= c;
-                    }
-                    d.lowpass.filtfilt_in_place(re);
-                    d.lowpass.filtfilt_in_place(im);
-                    for n in 0..ns {
-                        out[n] = Complex64::new(2.0 * re[n], 2.0 * im[n]);
-                    }
+                    d.forward_mixed(src, &self.mixing[t], re, im, out);
                 } else if let (Some(a), Some(sc)) = (&self.analytic, fsc.as_mut()) {
-                    a.forward(re, out, sc);
+                    a.forward(src, out, sc);
                 }
             },
         );
@@ -581,7 +574,7 @@ impl BMode {
                 |(re, im, fsc), (rec, (dst, cb))| {
                     let t = rec / ne;
                     if let Some(d) = &self.demod {
-                        d.vjp(cb, self.das.t0_s[t], re, im, dst);
+                        d.vjp_mixed(cb, &self.mixing[t], re, im, dst);
                     } else if let (Some(a), Some(sc)) = (&self.analytic, fsc.as_mut()) {
                         a.vjp(cb, dst, sc);
                     }

@@ -150,17 +150,16 @@ impl Sample for Complex64 {
 }
 
 /// Integer sample `i` and fraction `w` of position `s`, if both `i` and `i + 1` lie
-/// in a record of `ns` samples (NaN, negative and too large positions give
-/// `None`; the bound is tested in floating point first, since `as usize`
-/// saturates a huge position — a sidecar's `sampling_frequency_hz = 1e300` —
-/// and `i + 1` would then wrap).
+/// in a record of `ns` samples, i.e. `0 ≤ s < ns − 1` (NaN, negative and too large
+/// positions give `None`; the bound is tested in floating point, since `as usize`
+/// saturates a huge position — a sidecar's `sampling_frequency_hz = 1e300`).
 #[inline]
 fn locate(s: f64, ns: usize) -> Option<(usize, f64)> {
-    if !(s >= 0.0 && s + 1.0 < ns as f64) {
+    if !(s >= 0.0 && s < ns as f64 - 1.0) {
         return None;
     }
     let i = s as usize;
-    (i + 1 < ns).then_some((i, s - i as f64))
+    Some((i, s - i as f64))
 }
 
 /// `n` points from `a` to `b` inclusive (`n = 1` gives `a`).
@@ -184,6 +183,32 @@ struct RxTable {
     trx: Vec<f64>,
     rrx: Vec<Complex64>,
     ok: Vec<bool>,
+}
+
+/// One image row's working buffers for [`Das::forward`]: per transmit and
+/// pixel, the transmit delay from sample 0 (`ttx`), the transmit phase (`rtx`) and
+/// the running element sum (`acc`), `[n_transmits, nx]`; per pixel, one element's
+/// receive delay, phase and aperture flag when no lattice table applies.
+struct RowScratch<S> {
+    ttx: Vec<f64>,
+    rtx: Vec<Complex64>,
+    acc: Vec<S>,
+    trx: Vec<f64>,
+    rrx: Vec<Complex64>,
+    ok: Vec<bool>,
+}
+
+impl<S: Sample> RowScratch<S> {
+    fn new(nt: usize, nx: usize) -> Self {
+        RowScratch {
+            ttx: vec![0.0; nt * nx],
+            rtx: vec![Complex64::new(1.0, 0.0); nt * nx],
+            acc: vec![S::zero(); nt * nx],
+            trx: vec![0.0; nx],
+            rrx: vec![Complex64::new(1.0, 0.0); nx],
+            ok: vec![false; nx],
+        }
+    }
 }
 
 impl Das {
@@ -392,43 +417,74 @@ impl Das {
         let table = table.as_ref();
         let nf = self.n_frames;
         out.par_chunks_mut(nx * nf).enumerate().for_each_init(
-            || {
-                (
-                    vec![0.0; nt],
-                    vec![Complex64::new(1.0, 0.0); nt],
-                    vec![S::zero(); nt],
-                )
-            },
-            |(ttx, rtx, acc), (iz, row)| {
+            || RowScratch::<S>::new(nt, nx),
+            |sc, (iz, row)| {
+                let RowScratch {
+                    ttx,
+                    rtx,
+                    acc,
+                    trx: trx_buf,
+                    rrx: rrx_buf,
+                    ok: ok_buf,
+                } = sc;
                 let z = self.z_m[iz];
-                for (ix, px) in row.chunks_exact_mut(nf).enumerate() {
-                    let x = self.x_m[ix];
-                    for t in 0..nt {
-                        let tt = (x * trig[t].0 + z * trig[t].1) / c;
-                        ttx[t] = tt - self.t0_s[t];
+                // Step 1: each transmit's delay (from sample 0) and phase along the row.
+                for t in 0..nt {
+                    for ix in 0..nx {
+                        let tt = (self.x_m[ix] * trig[t].0 + z * trig[t].1) / c;
+                        ttx[t * nx + ix] = tt - self.t0_s[t];
                         if self.rotate {
                             let (s, co) = (w * tt).sin_cos();
-                            rtx[t] = Complex64::new(co, s);
+                            rtx[t * nx + ix] = Complex64::new(co, s);
                         }
-                        acc[t] = S::zero();
                     }
-                    for e in 0..ne {
-                        let Some((trx, rrx)) = self.rx(table, iz, ix, e) else {
-                            continue;
-                        };
-                        for t in 0..nt {
-                            let s = (ttx[t] + trx) * fs;
+                }
+                acc.fill(S::zero());
+                // Step 2: per element, its receive delays and phases along the row
+                // (a slice of the lattice table, or computed), then each transmit's
+                // record read along the row: one record at a time stays in cache,
+                // and every (pixel, transmit) still sums its elements in order.
+                for e in 0..ne {
+                    let (trx, rrx, ok): (&[f64], &[Complex64], &[bool]) = match table {
+                        Some(tb) => {
+                            let o = iz * tb.len + tb.k * (ne - 1 - e);
+                            (&tb.trx[o..o + nx], &tb.rrx[o..o + nx], &tb.ok[o..o + nx])
+                        }
+                        None => {
+                            for ix in 0..nx {
+                                let r = self.rx(None, iz, ix, e);
+                                ok_buf[ix] = r.is_some();
+                                if let Some((t, p)) = r {
+                                    trx_buf[ix] = t;
+                                    rrx_buf[ix] = p;
+                                }
+                            }
+                            (trx_buf, rrx_buf, ok_buf)
+                        }
+                    };
+                    for t in 0..nt {
+                        let rec = &data[(t * ne + e) * ns..(t * ne + e + 1) * ns];
+                        let tt = &ttx[t * nx..(t + 1) * nx];
+                        let acc = &mut acc[t * nx..(t + 1) * nx];
+                        for ix in 0..nx {
+                            if !ok[ix] {
+                                continue;
+                            }
+                            let s = (tt[ix] + trx[ix]) * fs;
                             let Some((i, fw)) = locate(s, ns) else {
                                 continue;
                             };
-                            let base = (t * ne + e) * ns + i;
-                            let v = data[base].scale(1.0 - fw) + data[base + 1].scale(fw);
-                            acc[t] += v.rot(rrx);
+                            let [a, b] = [rec[i], rec[i + 1]];
+                            acc[ix] += (a.scale(1.0 - fw) + b.scale(fw)).rot(rrx[ix]);
                         }
                     }
+                }
+                // Step 3: each transmit's sum, rotated by its transmit phase, into
+                // its frame, transmits in order.
+                for (ix, px) in row.chunks_exact_mut(nf).enumerate() {
                     px.fill(S::zero());
                     for t in 0..nt {
-                        px[self.frame_of[t]] += acc[t].rot(rtx[t]);
+                        px[self.frame_of[t]] += acc[t * nx + ix].rot(rtx[t * nx + ix]);
                     }
                 }
             },

@@ -45,6 +45,16 @@ impl IqDemod {
         })
     }
 
+    /// The mixing phases `(sin φ_n, cos φ_n)`, `φ_n = 2π f_c (t0 + n/f_s)`, of a
+    /// record of `n` samples starting at absolute time `t0`: computed once per
+    /// transmit and shared by all its records.
+    pub fn mixing(&self, t0: f64, n: usize) -> Vec<(f64, f64)> {
+        let w = 2.0 * core::f64::consts::PI * self.fc;
+        (0..n)
+            .map(|k| (w * (t0 + k as f64 / self.fs)).sin_cos())
+            .collect()
+    }
+
     /// Forward on one record starting at absolute time `t0`. `re`, `im` are scratch
     /// of the record's length; the result is written to `out`.
     pub fn forward(
@@ -55,9 +65,20 @@ impl IqDemod {
         im: &mut [f64],
         out: &mut [Complex64],
     ) {
-        let w = 2.0 * core::f64::consts::PI * self.fc;
-        for (n, &x) in rf.iter().enumerate() {
-            let (s, c) = (w * (t0 + n as f64 / self.fs)).sin_cos();
+        self.forward_mixed(rf, &self.mixing(t0, rf.len()), re, im, out);
+    }
+
+    /// [`IqDemod::forward`] with the record's mixing phases from
+    /// [`IqDemod::mixing`].
+    pub fn forward_mixed(
+        &self,
+        rf: &[f64],
+        mixing: &[(f64, f64)],
+        re: &mut [f64],
+        im: &mut [f64],
+        out: &mut [Complex64],
+    ) {
+        for (n, (&x, &(s, c))) in rf.iter().zip(mixing).enumerate() {
             re[n] = x * c;
             im[n] = -x * s;
         }
@@ -77,15 +98,25 @@ impl IqDemod {
         im: &mut [f64],
         rf_bar: &mut [f64],
     ) {
+        self.vjp_mixed(iq_bar, &self.mixing(t0, rf_bar.len()), re, im, rf_bar);
+    }
+
+    /// [`IqDemod::vjp`] with the record's mixing phases from [`IqDemod::mixing`].
+    pub fn vjp_mixed(
+        &self,
+        iq_bar: &[Complex64],
+        mixing: &[(f64, f64)],
+        re: &mut [f64],
+        im: &mut [f64],
+        rf_bar: &mut [f64],
+    ) {
         for (n, v) in iq_bar.iter().enumerate() {
             re[n] = v.re;
             im[n] = v.im;
         }
         self.lowpass.filtfilt_vjp_in_place(re);
         self.lowpass.filtfilt_vjp_in_place(im);
-        let w = 2.0 * core::f64::consts::PI * self.fc;
-        for n in 0..rf_bar.len() {
-            let (s, c) = (w * (t0 + n as f64 / self.fs)).sin_cos();
+        for (n, &(s, c)) in mixing.iter().enumerate().take(rf_bar.len()) {
             rf_bar[n] = 2.0 * (c * re[n] - s * im[n]);
         }
     }
