@@ -83,8 +83,10 @@ pub mod demod;
 pub mod error;
 pub mod filter;
 pub mod gain;
+mod h5;
 pub mod io;
 pub mod mat;
+mod mat73;
 pub mod post;
 pub mod pulse;
 

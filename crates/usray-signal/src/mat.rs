@@ -259,12 +259,12 @@ fn numbers(ty: u32, s: &[u8]) -> R<Vec<f64>> {
 
 /// How many values the file may still make the reader hold
 /// ([`limits::MAX_VALUES`] in all).
-struct Budget {
-    values_left: usize,
+pub(crate) struct Budget {
+    pub(crate) values_left: usize,
 }
 
 impl Budget {
-    fn take(&mut self, n: usize, name: &str) -> R<()> {
+    pub(crate) fn take(&mut self, n: usize, name: &str) -> R<()> {
         self.values_left = self.values_left.checked_sub(n).ok_or_else(|| {
             format!(
                 "array `{name}` takes the file past {} values (usray_signal::mat::limits::MAX_VALUES)",
@@ -414,7 +414,8 @@ fn parse_matrix(body: &[u8], depth: usize, budget: &mut Budget) -> R<(String, Ma
     Ok((name, value))
 }
 
-/// Read every variable of a MATLAB v5 `.mat` file.
+/// Read every variable of a MATLAB `.mat` file: v5 (and v6, v7) by the reader
+/// here, v7.3 (HDF5) by [`crate::mat73`], chosen by the header.
 pub fn read_mat(path: impl AsRef<Path>) -> Result<MatFile> {
     let path = path.as_ref();
     let size = std::fs::metadata(path)
@@ -429,6 +430,9 @@ pub fn read_mat(path: impl AsRef<Path>) -> Result<MatFile> {
             ),
         ));
     }
+    if crate::mat73::is_mat73(path)? {
+        return crate::mat73::read_mat73(path);
+    }
     let bytes = std::fs::read(path).map_err(|e| SignalError::io(path, e))?;
     parse_mat(&bytes).map_err(|w| SignalError::format(path, w))
 }
@@ -439,7 +443,9 @@ pub fn parse_mat(bytes: &[u8]) -> std::result::Result<MatFile, String> {
         return Err("too short for a MAT v5 header (128 bytes)".into());
     }
     if bytes.starts_with(b"\x89HDF") || bytes[..128].windows(9).any(|w| w == b"MATLAB 7.3") {
-        return Err("MAT v7.3 (HDF5) is not supported; save with -v7 or -v6".into());
+        return Err(
+            "MAT v7.3 (HDF5) cannot be parsed from bytes; read the file with read_mat".into(),
+        );
     }
     if &bytes[126..128] != b"IM" {
         return Err("not a little-endian MAT v5 file (header endian indicator is not 'IM')".into());
@@ -690,7 +696,7 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
 
 /// `data` if it passes [`ChannelData::validate`] (every field in its physical
 /// range, samples present and finite), else an error naming `path`.
-fn validated(path: &Path, data: ChannelData) -> Result<ChannelData> {
+pub(crate) fn validated(path: &Path, data: ChannelData) -> Result<ChannelData> {
     data.validate().map_err(|w| {
         SignalError::format(
             path,
@@ -701,7 +707,7 @@ fn validated(path: &Path, data: ChannelData) -> Result<ChannelData> {
 }
 
 /// The values `options` set, as the output's `source.overrides` records them.
-fn overrides(options: &ImportOptions) -> serde_json::Value {
+pub(crate) fn overrides(options: &ImportOptions) -> serde_json::Value {
     let mut m = serde_json::Map::new();
     if let Some(p) = options.pitch_m {
         m.insert("pitch_m".into(), p.into());
