@@ -72,6 +72,13 @@ impl Sampling {
     }
 }
 
+/// The formats `usray export` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExportFormat {
+    /// USTB's ultrasound file format (HDF5): `uff.channel_data` with plane waves.
+    Uff,
+}
+
 /// The subcommands of CONTRACT §4.
 #[derive(Debug, Subcommand)]
 pub enum Command {
@@ -107,7 +114,8 @@ pub enum Command {
         #[command(flatten)]
         common: Common,
     },
-    /// Convert measured data (Verasonics-style MATLAB .mat) into channel data
+    /// Convert measured data (MATLAB .mat v5 or v7.3 in the Verasonics or
+    /// full-matrix layout, or UFF .uff plane-wave channel data) into channel data
     /// (CONTRACT §2), with the time origin moved to CONTRACT §1's clock.
     Import {
         /// The file to convert.
@@ -122,6 +130,21 @@ pub enum Command {
         /// Centre frequency in Hz, for files that do not store it.
         #[arg(long, value_name = "HZ")]
         fc: Option<f64>,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Write channel data (CONTRACT §2) in another format: `--format uff` writes
+    /// NAME.uff (USTB's UFF, readable by USTB and pyuff_ustb).
+    Export {
+        /// Channel data: the .json sidecar (its .npy sits beside it).
+        channels: PathBuf,
+        /// The format to write.
+        #[arg(long, value_enum)]
+        format: ExportFormat,
+        /// Stem of the written file (default: the input's stem).
+        #[arg(long)]
+        name: Option<String>,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,
@@ -291,6 +314,7 @@ impl Command {
             | Command::Render { common, .. }
             | Command::Beamform { common, .. }
             | Command::Import { common, .. }
+            | Command::Export { common, .. }
             | Command::Params { common, .. }
             | Command::Grad { common, .. }
             | Command::Fit { common, .. }
