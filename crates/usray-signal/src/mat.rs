@@ -8,6 +8,15 @@
 //! class is converted to `f64` (integers exactly; `uint8` metadata such as
 //! `Nelements` cannot overflow afterwards). Opaque class objects (MATLAB `classdef`
 //! instances) and sparse arrays are recognised and skipped.
+//!
+//! MAT v7.3 files (HDF5) are read by [`crate::mat73`] into the same [`MatFile`];
+//! [`read_mat`] chooses by the header.
+//!
+//! Why a hand-written v5 reader: the Rust crates for `.mat` files read numeric
+//! arrays only — `matfile` (0.5, "alpha quality", cell and structure arrays not
+//! implemented) and `mat5` (0.1, dense and sparse numeric arrays) — while the
+//! Verasonics layout is a struct (`param`) and full-matrix capture a cell
+//! (`data{k}`).
 
 use std::io::Read;
 use std::path::Path;

@@ -87,3 +87,49 @@ fn a_v73_header_without_hdf5_is_an_error_naming_the_file() {
     let e = read_mat(&p).unwrap_err().to_string();
     assert!(e.contains("fake.mat") && e.contains("HDF5"), "{e}");
 }
+
+/// Hostile v7.3 files are refused by the v5 reader's limits before memory is
+/// spent: an array past `MAX_VALUES` (declared, never written: a few bytes on
+/// disk) and a cell that contains itself (stopped at `MAX_NESTING`).
+#[test]
+fn v73_files_past_the_limits_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let class = |loc: &hdf5::Location, name: &str| {
+        let v: hdf5::types::VarLenUnicode = name.parse().unwrap();
+        loc.new_attr::<hdf5::types::VarLenUnicode>()
+            .create("MATLAB_class")
+            .unwrap()
+            .write_scalar(&v)
+            .unwrap();
+    };
+
+    let huge = dir.path().join("huge.mat");
+    {
+        let f = hdf5::File::create(&huge).unwrap();
+        let n = usray_signal::mat::limits::MAX_VALUES + 1;
+        let ds = f
+            .new_dataset::<f64>()
+            .shape([n, 1])
+            .chunk([1024, 1])
+            .create("big")
+            .unwrap();
+        class(&ds, "double");
+    }
+    let e = read_mat(&huge).unwrap_err().to_string();
+    assert!(e.contains("huge.mat") && e.contains("MAX_VALUES"), "{e}");
+
+    let cyclic = dir.path().join("cyclic.mat");
+    {
+        let f = hdf5::File::create(&cyclic).unwrap();
+        let ds = f
+            .new_dataset::<hdf5::ObjectReference1>()
+            .shape([1, 1])
+            .create("c")
+            .unwrap();
+        class(&ds, "cell");
+        let itself = f.reference::<hdf5::ObjectReference1>("c").unwrap();
+        ds.write_raw(&[itself]).unwrap();
+    }
+    let e = read_mat(&cyclic).unwrap_err().to_string();
+    assert!(e.contains("cyclic.mat") && e.contains("MAX_NESTING"), "{e}");
+}
