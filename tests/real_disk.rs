@@ -247,6 +247,7 @@ fn steel_pins_fmc_as_plane_wave() {
     let opts = usray::signal::ImportOptions {
         pitch_m: Some(1e-3),
         center_frequency_hz: Some(3.5e6),
+        ..Default::default()
     };
     let ch = usray::signal::import_mat_with(&path, &opts).unwrap();
     assert_eq!(

@@ -72,6 +72,13 @@ impl Sampling {
     }
 }
 
+/// The formats `usray export` writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ExportFormat {
+    /// USTB's ultrasound file format (HDF5): `uff.channel_data` with plane waves.
+    Uff,
+}
+
 /// The subcommands of CONTRACT §4.
 #[derive(Debug, Subcommand)]
 pub enum Command {
@@ -107,12 +114,13 @@ pub enum Command {
         #[command(flatten)]
         common: Common,
     },
-    /// Convert measured data (a MATLAB .mat file) into channel data (CONTRACT §2),
-    /// with the time origin moved to CONTRACT §1's clock. The acquisition is
-    /// found by content: the parameters under their usual spellings in any struct
-    /// or at the top level, the RF as the largest numeric array with its axes
-    /// matched by the counts. What was used and assumed is printed and kept in
-    /// the output's `source`; the flags override the file.
+    /// Convert measured data (MATLAB .mat v5 or v7.3, or UFF .uff plane-wave
+    /// channel data) into channel data (CONTRACT §2), with the time origin moved
+    /// to CONTRACT §1's clock. In a .mat file the acquisition is found by
+    /// content: the parameters under their usual spellings in any struct or at
+    /// the top level, the RF as the largest numeric array with its axes matched
+    /// by the counts. What was used and assumed is printed and kept in the
+    /// output's `source`; the flags override the file.
     Import {
         /// The file to convert.
         file: PathBuf,
@@ -122,6 +130,21 @@ pub enum Command {
         /// What the file lacks or stores wrongly.
         #[command(flatten)]
         flags: ImportFlags,
+        /// Options every command takes.
+        #[command(flatten)]
+        common: Common,
+    },
+    /// Write channel data (CONTRACT §2) in another format: `--format uff` writes
+    /// NAME.uff (USTB's UFF, readable by USTB and pyuff_ustb).
+    Export {
+        /// Channel data: the .json sidecar (its .npy sits beside it).
+        channels: PathBuf,
+        /// The format to write.
+        #[arg(long, value_enum)]
+        format: ExportFormat,
+        /// Stem of the written file (default: the input's stem).
+        #[arg(long)]
+        name: Option<String>,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,
@@ -296,6 +319,7 @@ impl Command {
             | Command::Render { common, .. }
             | Command::Beamform { common, .. }
             | Command::Import { common, .. }
+            | Command::Export { common, .. }
             | Command::Params { common, .. }
             | Command::Grad { common, .. }
             | Command::Fit { common, .. }

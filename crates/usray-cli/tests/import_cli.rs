@@ -83,3 +83,71 @@ fn flags_override_the_files_values_and_bad_flags_are_refused() {
         assert!(err.contains("--pitch"), "--pitch={bad}: {err}");
     }
 }
+
+/// `usray export --format uff` writes NAME.uff that `usray import` reads back to
+/// the same channel data, and pyuff_ustb (USTB's reader) reads it as the sidecar
+/// says; a .uff that is not HDF5 is refused naming the file.
+#[test]
+fn export_to_uff_and_import_it_back() {
+    let Some(points) = usray_testdata::data_file("peers/points.json") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (uff_dir, back_dir) = (dir.path().join("uff"), dir.path().join("back"));
+    let o = usray(&[
+        "export",
+        points.to_str().unwrap(),
+        "--format",
+        "uff",
+        "--out",
+        uff_dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let uff = uff_dir.join("points.uff");
+    let o = usray(&[
+        "import",
+        uff.to_str().unwrap(),
+        "--out",
+        back_dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (a, b) = (sidecar(&points), sidecar(&back_dir.join("points.json")));
+    for key in [
+        "sampling_frequency_hz",
+        "t0_s",
+        "sound_speed_m_s",
+        "center_frequency_hz",
+    ] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+    for (ta, tb) in a["transmits"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(b["transmits"].as_array().unwrap())
+    {
+        assert_eq!(
+            (&ta["angle_rad"], &ta["t0_s"]),
+            (&tb["angle_rad"], &tb["t0_s"])
+        );
+    }
+    let samples = |p: &std::path::Path| usray_signal::read_channels(p).unwrap().samples;
+    assert!(samples(&points) == samples(&back_dir.join("points.json")));
+    usray_testdata::run_python(
+        &["h5py", "numpy", "pyuff_ustb"],
+        "tests/python/uff_check.py",
+        &[uff.as_os_str(), points.as_os_str()],
+    );
+
+    let fake = dir.path().join("fake.uff");
+    std::fs::write(&fake, b"not hdf5").unwrap();
+    let o = usray(&[
+        "import",
+        fake.to_str().unwrap(),
+        "--out",
+        back_dir.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("fake.uff") && err.contains("HDF5"), "{err}");
+}

@@ -32,24 +32,35 @@ where
     F: FnOnce(&mut dyn Write) -> std::io::Result<()>,
 {
     let path = path.as_ref();
+    let tmp = temp_beside(path)?;
+    {
+        let mut w = BufWriter::new(tmp.as_file());
+        write(&mut w).map_err(|e| SignalError::io(path, e))?;
+        w.flush().map_err(|e| SignalError::io(path, e))?;
+    }
+    persist(tmp, path)
+}
+
+/// A new temporary file in the directory of `path` (`.usray-tmp-*`), removed when
+/// dropped unless [`persist`]ed. A temporary file is private (0600) by default;
+/// it is asked for 0666 so that the file renamed into place has the mode the
+/// user's umask gives any new file.
+pub(crate) fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
     let mut builder = tempfile::Builder::new();
     builder.prefix(".usray-tmp-");
-    // A temporary file is private (0600) by default; ask for 0666 so the file
-    // that is renamed into place has the mode the user's umask gives any new file.
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    let tmp = builder
+    builder
         .tempfile_in(&dir)
-        .map_err(|e| SignalError::io(path, e))?;
-    {
-        let mut w = BufWriter::new(tmp.as_file());
-        write(&mut w).map_err(|e| SignalError::io(path, e))?;
-        w.flush().map_err(|e| SignalError::io(path, e))?;
-    }
+        .map_err(|e| SignalError::io(path, e))
+}
+
+/// Syncs the finished temporary file `tmp` and renames it onto `path`.
+pub(crate) fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> Result<()> {
     tmp.as_file()
         .sync_all()
         .map_err(|e| SignalError::io(path, e))?;

@@ -16,7 +16,8 @@
 //! | [`post`] | envelope, `20 log10`, normalisation, dynamic-range clip |
 //! | [`bmode`] | the composed operator `B` with one forward and one VJP call |
 //! | [`io`] | channel data and B-mode files, [`write_atomic`] |
-//! | [`mat`] | MATLAB v5 `.mat` reader and Verasonics plane-wave import |
+//! | [`mat`] | MATLAB `.mat` reader (v5 here, v7.3/HDF5 in a private module) and Verasonics plane-wave import |
+//! | [`uff`] | UFF (USTB, PICMUS) plane-wave channel data: import and export |
 //!
 //! ## Frames: the `frame` key (extension of CONTRACT §2)
 //!
@@ -83,11 +84,14 @@ pub mod demod;
 pub mod error;
 pub mod filter;
 pub mod gain;
+mod h5;
 pub mod import;
 pub mod io;
 pub mod mat;
+mod mat73;
 pub mod post;
 pub mod pulse;
+pub mod uff;
 
 pub use bmode::{BMode, Demod, Image, ImagingSettings, Workspace};
 pub use channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta};
@@ -96,3 +100,4 @@ pub use import::{import_mat, import_mat_with, ImportOptions};
 pub use io::{read_channels, write_atomic, write_channels};
 /// Complex sample type used for IQ and analytic data (re-exported from `rustfft`).
 pub use rustfft::num_complex::Complex64;
+pub use uff::{export_uff, import_uff, import_uff_with};

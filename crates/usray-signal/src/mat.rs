@@ -8,6 +8,15 @@
 //! class is converted to `f64` (integers exactly; `uint8` metadata such as
 //! `Nelements` cannot overflow afterwards). Opaque class objects (MATLAB `classdef`
 //! instances) and sparse arrays are recognised and skipped.
+//!
+//! MAT v7.3 files (HDF5) are read by [`crate::mat73`] into the same [`MatFile`];
+//! [`read_mat`] chooses by the header.
+//!
+//! Why a hand-written v5 reader: the Rust crates for `.mat` files read numeric
+//! arrays only — `matfile` (0.5, "alpha quality", cell and structure arrays not
+//! implemented) and `mat5` (0.1, dense and sparse numeric arrays) — while the
+//! Verasonics layout is a struct (`param`) and full-matrix capture a cell
+//! (`data{k}`).
 
 use std::io::Read;
 use std::path::Path;
@@ -258,12 +267,12 @@ fn numbers(ty: u32, s: &[u8]) -> R<Vec<f64>> {
 
 /// How many values the file may still make the reader hold
 /// ([`limits::MAX_VALUES`] in all).
-struct Budget {
-    values_left: usize,
+pub(crate) struct Budget {
+    pub(crate) values_left: usize,
 }
 
 impl Budget {
-    fn take(&mut self, n: usize, name: &str) -> R<()> {
+    pub(crate) fn take(&mut self, n: usize, name: &str) -> R<()> {
         self.values_left = self.values_left.checked_sub(n).ok_or_else(|| {
             format!(
                 "array `{name}` takes the file past {} values (usray_signal::mat::limits::MAX_VALUES)",
@@ -413,7 +422,8 @@ fn parse_matrix(body: &[u8], depth: usize, budget: &mut Budget) -> R<(String, Ma
     Ok((name, value))
 }
 
-/// Read every variable of a MATLAB v5 `.mat` file.
+/// Read every variable of a MATLAB `.mat` file: v5 (and v6, v7) by the reader
+/// here, v7.3 (HDF5) by [`crate::mat73`], chosen by the header.
 pub fn read_mat(path: impl AsRef<Path>) -> Result<MatFile> {
     let path = path.as_ref();
     let size = std::fs::metadata(path)
@@ -428,6 +438,9 @@ pub fn read_mat(path: impl AsRef<Path>) -> Result<MatFile> {
             ),
         ));
     }
+    if crate::mat73::is_mat73(path)? {
+        return crate::mat73::read_mat73(path);
+    }
     let bytes = std::fs::read(path).map_err(|e| SignalError::io(path, e))?;
     parse_mat(&bytes).map_err(|w| SignalError::format(path, w))
 }
@@ -438,7 +451,9 @@ pub fn parse_mat(bytes: &[u8]) -> std::result::Result<MatFile, String> {
         return Err("too short for a MAT v5 header (128 bytes)".into());
     }
     if bytes.starts_with(b"\x89HDF") || bytes[..128].windows(9).any(|w| w == b"MATLAB 7.3") {
-        return Err("MAT v7.3 (HDF5) is not supported; save with -v7 or -v6".into());
+        return Err(
+            "MAT v7.3 (HDF5) cannot be parsed from bytes; read the file with read_mat".into(),
+        );
     }
     if &bytes[126..128] != b"IM" {
         return Err("not a little-endian MAT v5 file (header endian indicator is not 'IM')".into());

@@ -1,6 +1,6 @@
 //! PyMUST's point-target channel data written with `scipy.io.savemat` under other
 //! names, sample types (uint8, int16, single, uint16) and axis orders, with and
-//! without frames and transmit delays (`scripts/pymust_as_mat.py`), imported with
+//! without frames and transmit delays (`tests/python/pymust_as_mat.py`), imported with
 //! no options: each import recovers the acquisition and its B-mode puts the five
 //! points where `peers/points.json` says.
 
@@ -59,23 +59,17 @@ fn pymust_points_in_other_layouts_import_and_image_in_place() {
     let Some(points) = usray_testdata::data_file("peers/points.json") else {
         return;
     };
-    let Some(python) = usray_testdata::python_with(&["numpy", "scipy.io"]) else {
-        return;
-    };
     let dir = tempfile::tempdir().unwrap();
-    let script =
-        usray_testdata::workspace_file("crates/usray-signal/tests/scripts/pymust_as_mat.py");
-    let out = std::process::Command::new(python)
-        .arg(script)
-        .arg(&points)
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let args = [points.as_os_str(), dir.path().as_os_str()];
+    if usray_testdata::run_python(
+        &["numpy", "scipy.io"],
+        "tests/python/pymust_as_mat.py",
+        &args,
+    )
+    .is_none()
+    {
+        return;
+    }
     let original = usray_signal::read_channels(&points).unwrap();
     let s = &original.meta.extra["scatterers"];
     let truth: Vec<(f64, f64)> = numbers(&s["x_m"])

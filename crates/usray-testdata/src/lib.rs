@@ -5,6 +5,11 @@
 //! was skipped and returns `None`, so the test passes. Under CI (`CI=true`) missing
 //! data is a failure, so a wrong path can never pass silently.
 //!
+//!
+//! Tests that run a Python script (fixtures written or checked with h5py,
+//! pyuff_ustb, …) get the interpreter from [`python`], which treats a missing
+//! `python3` or module the same way: skipped locally, a failure under CI.
+//!
 //! ```
 //! // In a test:
 //! let Some(path) = usray_testdata::data_file("peers/points.json") else { return };
@@ -89,30 +94,53 @@ pub fn data_file(relative: &str) -> Option<PathBuf> {
     found
 }
 
-/// `python3`, if it runs and imports every module of `modules` (e.g.
-/// `["numpy", "scipy.io"]`), for tests that make or read files with a peer's
-/// Python tools.
+/// Runs the repository's Python script `script` (a path from the workspace root,
+/// e.g. `"tests/python/uff_check.py"`) with `args`, if `python3` runs and imports
+/// every module of `modules` (e.g. `["h5py", "pyuff_ustb"]`; CI installs them from
+/// `ci/requirements.txt`).
 ///
-/// Returns `None` and prints a skip notice when Python or a module is missing
-/// outside CI.
+/// Returns `None` and prints a skip notice when either is missing outside CI.
 ///
 /// # Panics
-/// Under CI (`CI=true`) a missing Python or module panics: `.ci/run` installs
-/// them (`ci/requirements.txt`).
-pub fn python_with(modules: &[&str]) -> Option<PathBuf> {
-    let python = PathBuf::from("python3");
-    let script = format!("import {}", modules.join(", "));
-    let ok = std::process::Command::new(&python)
-        .args(["-c", &script])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        let msg = format!("python3 cannot `{script}` (pip install -r ci/requirements.txt)");
+/// Under CI (`CI=true`) a missing interpreter or module panics, naming it; the
+/// script exiting non-zero panics with its output.
+pub fn run_python<A: AsRef<std::ffi::OsStr>>(
+    modules: &[&str],
+    script: &str,
+    args: &[A],
+) -> Option<()> {
+    let probe = std::process::Command::new("python3")
+        .arg("-c")
+        .arg(format!("import {}", modules.join(", ")))
+        .output();
+    let missing = match probe {
+        Err(e) => Some(format!("python3 cannot be run ({e})")),
+        Ok(o) if !o.status.success() => Some(format!(
+            "python3 lacks a module of {modules:?}: {}",
+            String::from_utf8_lossy(&o.stderr).trim()
+        )),
+        Ok(_) => None,
+    };
+    if let Some(msg) = missing {
         if under_ci() {
-            panic!("{msg}; CI=true, so a missing Python module is a failure");
+            panic!("{msg}; CI=true, so a missing Python dependency is a failure (pip install -r ci/requirements.txt)");
         }
-        eprintln!("SKIPPED: {msg}");
+        eprintln!("SKIPPED: {msg} (pip install -r ci/requirements.txt)");
         return None;
     }
-    Some(python)
+    let path = workspace_file(script);
+    let out = std::process::Command::new("python3")
+        .arg(&path)
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run python3 {}: {e}", path.display()));
+    assert!(
+        out.status.success(),
+        "python3 {} failed ({}):\n{}\n{}",
+        path.display(),
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(())
 }

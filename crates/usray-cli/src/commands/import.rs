@@ -5,7 +5,7 @@ use crate::output::OutDir;
 use anyhow::{Context, Result};
 use std::path::Path;
 use usray_signal::import::Axis;
-use usray_signal::{import_mat_with, write_channels, ImportOptions};
+use usray_signal::{import_mat_with, import_uff_with, write_channels, ImportOptions};
 
 impl ImportFlags {
     /// The flags as the library's options, checked.
@@ -41,15 +41,17 @@ impl ImportFlags {
 /// were used and what was assumed.
 pub fn run(file: &Path, name: Option<&str>, flags: &ImportFlags, common: &Common) -> Result<()> {
     let options = flags.options()?;
-    let is_mat = file
+    let extension = file
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
-    anyhow::ensure!(
-        is_mat,
-        "{}: only MATLAB .mat files can be imported so far",
-        file.display()
-    );
-    let data = import_mat_with(file, &options)?;
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let data = match extension.as_deref() {
+        Some("mat") => import_mat_with(file, &options)?,
+        Some("uff") => import_uff_with(file, &options)?,
+        _ => anyhow::bail!(
+            "{}: only MATLAB .mat (v5 or v7.3) and UFF .uff files can be imported",
+            file.display()
+        ),
+    };
     let stem = match name {
         Some(n) => n.to_string(),
         None => file

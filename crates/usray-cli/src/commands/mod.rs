@@ -4,6 +4,7 @@ mod beamform;
 pub mod calib;
 pub mod demo;
 mod diagnose;
+mod export;
 pub mod fit;
 mod grad;
 mod import;
@@ -33,6 +34,12 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             flags,
             common,
         } => import::run(file, name.as_deref(), flags, common),
+        Command::Export {
+            channels,
+            format,
+            name,
+            common,
+        } => export::run(channels, *format, name.as_deref(), common),
         Command::Params { scene, common } => params::run(scene, &common.out),
         Command::Demo { common } => demo::run(common),
         Command::Grad {

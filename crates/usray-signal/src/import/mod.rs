@@ -65,7 +65,7 @@ pub struct ImportOptions {
 
 impl ImportOptions {
     /// The values set, as the output's `source.overrides` records them.
-    fn overrides(&self) -> serde_json::Value {
+    pub(crate) fn overrides(&self) -> serde_json::Value {
         let mut m = serde_json::Map::new();
         let mut put = |k: &str, v: serde_json::Value| {
             m.insert(k.into(), v);
@@ -169,7 +169,7 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
 
 /// `data` if it passes [`ChannelData::validate`] (every field in its physical
 /// range, samples present and finite), else an error naming `path`.
-fn validated(path: &Path, data: ChannelData) -> Result<ChannelData> {
+pub(crate) fn validated(path: &Path, data: ChannelData) -> Result<ChannelData> {
     data.validate().map_err(|w| {
         SignalError::format(
             path,

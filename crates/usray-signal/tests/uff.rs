@@ -1,0 +1,203 @@
+//! UFF import and export: a file USTB's Python writer (pyuff_ustb) made imports to
+//! the channel data the script states independently; usray → UFF → usray keeps
+//! the channel data; what usray cannot map is refused naming it.
+
+use std::path::Path;
+
+use usray_signal::io::read_channels;
+use usray_signal::{export_uff, import_mat, import_uff, ChannelData};
+
+const MODULES: &[&str] = &["h5py", "numpy", "pyuff_ustb"];
+
+/// Channel data without the keys UFF does not carry (everything but `frame` in
+/// the `extra` maps: the probe's name, the import's `source`, …).
+fn carried(mut ch: ChannelData) -> ChannelData {
+    ch.meta.extra.clear();
+    ch.meta.probe.extra.clear();
+    for t in &mut ch.meta.transmits {
+        t.extra.retain(|k, _| k == "frame");
+    }
+    ch
+}
+
+/// pyuff_ustb writes 2 frames × 3 plane waves with different transmit delays;
+/// usray imports the values, the angles, the frames and USTB's time origin
+/// (t0 = initial_time + delay) exactly.
+#[test]
+fn a_file_written_by_pyuff_ustb_imports_to_the_stated_channel_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let (uff, expected) = (dir.path().join("s.uff"), dir.path().join("expected.json"));
+    let Some(()) = usray_testdata::run_python(
+        MODULES,
+        "tests/python/uff_write.py",
+        &[uff.as_os_str(), expected.as_os_str()],
+    ) else {
+        return;
+    };
+    let imported = import_uff(&uff).unwrap();
+    assert_eq!(imported.meta.extra["source"]["file"], "s.uff");
+    assert_eq!(carried(imported), read_channels(&expected).unwrap());
+}
+
+/// usray writes PyMUST's point-target channel data (3 angles, a t0 per transmit);
+/// pyuff_ustb reads back the rates, probe, angles, time origin and samples; usray
+/// imports the file to the same channel data.
+#[test]
+fn points_round_trip_through_uff_and_read_in_pyuff_ustb() {
+    let Some(points) = usray_testdata::data_file("peers/points.json") else {
+        return;
+    };
+    let original = read_channels(&points).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let uff = dir.path().join("points.uff");
+    export_uff(&uff, &original).unwrap();
+    assert_eq!(carried(import_uff(&uff).unwrap()), carried(original));
+    usray_testdata::run_python(
+        MODULES,
+        "tests/python/uff_check.py",
+        &[uff.as_os_str(), points.as_os_str()],
+    );
+}
+
+/// The 32 frames of `PWI_disk.mat` become UFF's frame dimension and come back
+/// tagged `frame` 0…31.
+#[test]
+fn frames_round_trip_through_uff() {
+    let Some(mat) = usray_testdata::data_file("real/PWI_disk.mat") else {
+        return;
+    };
+    let original = import_mat(&mat).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let uff = dir.path().join("disk.uff");
+    export_uff(&uff, &original).unwrap();
+    let back = import_uff(&uff).unwrap();
+    assert_eq!(back.n_transmits(), 32);
+    assert_eq!(carried(back), carried(original));
+}
+
+/// A small plane-wave data set (one transmit, 8 elements).
+fn small() -> ChannelData {
+    let meta = serde_json::from_value(serde_json::json!({
+        "format": "usray-channels/1", "sampling_frequency_hz": 20e6, "t0_s": 1e-6,
+        "sound_speed_m_s": 1540.0, "center_frequency_hz": 5e6,
+        "probe": {"kind": "linear", "n_elements": 8, "pitch_m": 0.3e-3, "element_width_m": 0.27e-3},
+        "transmits": [{"kind": "plane_wave", "angle_rad": 0.05}]
+    }))
+    .unwrap();
+    ChannelData {
+        meta,
+        n_samples: 16,
+        samples: (0..128).map(|i| i as f64).collect(),
+    }
+}
+
+/// `small()` written to `dir/NAME.uff`, then changed by `edit`.
+fn edited(dir: &Path, name: &str, edit: impl FnOnce(&hdf5::File)) -> std::path::PathBuf {
+    let p = dir.join(format!("{name}.uff"));
+    export_uff(&p, &small()).unwrap();
+    edit(&hdf5::File::open_rw(&p).unwrap());
+    p
+}
+
+fn set_number(file: &hdf5::File, path: &str, v: f64) {
+    file.dataset(path).unwrap().write_raw(&[v]).unwrap();
+}
+
+/// IQ data, spherical waves, elevated plane waves, curvilinear probes, shifted
+/// elements and missing fields are each refused with an error naming the file
+/// and the field.
+#[test]
+fn what_usray_cannot_map_is_refused_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    assert_eq!(
+        carried(import_uff(edited(d, "plain", |_| {})).unwrap()),
+        small()
+    );
+    let cases: Vec<(std::path::PathBuf, &str)> = vec![
+        (
+            edited(d, "iq", |f| {
+                set_number(f, "channel_data/modulation_frequency", 5e6)
+            }),
+            "IQ",
+        ),
+        (
+            edited(d, "spherical", |f| {
+                f.dataset("channel_data/sequence/wavefront")
+                    .unwrap()
+                    .write_raw(&[1i32])
+                    .unwrap()
+            }),
+            "not a plane wave",
+        ),
+        (
+            edited(d, "elevated", |f| {
+                set_number(f, "channel_data/sequence/source/elevation", 0.1)
+            }),
+            "source/elevation",
+        ),
+        (
+            edited(d, "convex", |f| {
+                let p = f.group("channel_data/probe").unwrap();
+                p.delete_attr("class").unwrap();
+                let v: hdf5::types::VarLenUnicode = "uff.curvilinear_array".parse().unwrap();
+                p.new_attr::<hdf5::types::VarLenUnicode>()
+                    .create("class")
+                    .unwrap()
+                    .write_scalar(&v)
+                    .unwrap();
+            }),
+            "uff.curvilinear_array",
+        ),
+        (
+            edited(d, "shifted", |f| {
+                let g = f.dataset("channel_data/probe/geometry").unwrap();
+                let mut v = g.read_raw::<f64>().unwrap();
+                v[0] += 0.1e-3;
+                g.write_raw(&v).unwrap();
+            }),
+            "geometry",
+        ),
+        (
+            edited(d, "no_fs", |f| {
+                f.unlink("channel_data/sampling_frequency").unwrap()
+            }),
+            "sampling_frequency` is missing",
+        ),
+        (
+            edited(d, "no_pulse", |f| f.unlink("channel_data/pulse").unwrap()),
+            "--fc",
+        ),
+    ];
+    for (path, needle) in cases {
+        let e = import_uff(&path).unwrap_err().to_string();
+        assert!(
+            e.contains(path.file_name().unwrap().to_str().unwrap()) && e.contains(needle),
+            "{}: {e}",
+            path.display()
+        );
+    }
+    let e = import_uff(d.join("missing.uff")).unwrap_err().to_string();
+    assert!(e.contains("missing.uff"), "{e}");
+}
+
+/// Frame-tagged transmits that do not repeat one sequence cannot be written, and
+/// nothing is left behind.
+#[test]
+fn irregular_frames_are_not_written() {
+    let mut ch = small();
+    let mut second = ch.meta.transmits[0].clone();
+    second.angle_rad = 0.2;
+    ch.meta.transmits.push(second);
+    ch.samples.extend_from_slice(&ch.samples.clone());
+    for (i, f) in [0, 1].iter().enumerate() {
+        ch.meta.transmits[i]
+            .extra
+            .insert("frame".into(), (*f).into());
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("frames.uff");
+    let e = export_uff(&p, &ch).unwrap_err().to_string();
+    assert!(e.contains("frame 1") && e.contains("frames.uff"), "{e}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
