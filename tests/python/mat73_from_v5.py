@@ -115,9 +115,18 @@ def header():
 
 
 def v5_to_v73(src, out):
-    # mat_dtype: each array in its MATLAB class (MATLAB stores integer-valued
-    # doubles in a smaller type, e.g. PWI_disk's RF as int16 data of class double).
-    variables = scipy.io.loadmat(src, chars_as_strings=False, mat_dtype=True)
+    variables = scipy.io.loadmat(src, chars_as_strings=False, mat_dtype=False)
+    # A top-level real array in its MATLAB class, not its storage type (MATLAB
+    # stores integer-valued doubles in a smaller type: PWI_disk's RF is int16 data
+    # of class double). mat_dtype=True would drop imaginary parts, so only there.
+    as_class = scipy.io.loadmat(src, chars_as_strings=False, mat_dtype=True)
+    for name, value in variables.items():
+        if (
+            isinstance(value, np.ndarray)
+            and value.dtype.kind in "iuf"
+            and as_class[name].dtype.kind in "iuf"
+        ):
+            variables[name] = as_class[name]
     with h5py.File(out, "w", userblock_size=512) as h5:
         w = Writer(h5)
         for name, value in variables.items():
