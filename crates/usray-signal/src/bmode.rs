@@ -356,31 +356,45 @@ impl BMode {
         let zero = Complex64::new(0.0, 0.0);
         Workspace {
             cx: vec![zero; n],
-            cx_bar: vec![zero; n],
-            scratch: vec![zero; n],
+            cx_bar: Vec::new(),
+            scratch: Vec::new(),
             bf: vec![zero; m * self.das.n_frames],
-            bf_bar: vec![zero; m * self.das.n_frames],
+            bf_bar: Vec::new(),
             env: vec![0.0; m],
-            env_bar: vec![0.0; m],
+            env_bar: Vec::new(),
             db: vec![0.0; m],
-            db_bar: vec![0.0; m],
+            db_bar: Vec::new(),
             argmax: 0,
             has_forward: false,
         }
+    }
+
+    /// Allocates the VJP's buffers of `ws` on its first VJP: a forward-only user
+    /// (`usray beamform`) never pays for them.
+    fn vjp_buffers(&self, ws: &mut Workspace) {
+        let (nz, nx) = self.image_shape();
+        let (n, m, f) = (self.das.data_len(), nz * nx, self.das.n_frames);
+        let zero = Complex64::new(0.0, 0.0);
+        ws.cx_bar.resize(n, zero);
+        ws.scratch.resize(n, zero);
+        ws.bf_bar.resize(m * f, zero);
+        ws.env_bar.resize(m, 0.0);
+        ws.db_bar.resize(m, 0.0);
     }
 
     /// `Err` unless `ws` was made by [`BMode::workspace`] of an operator of this shape.
     fn check_workspace(&self, ws: &Workspace) -> Result<()> {
         let (nz, nx) = self.image_shape();
         let (n, m, f) = (self.das.data_len(), nz * nx, self.das.n_frames);
+        // The VJP's buffers are empty until its first call.
+        let vjp_ok = |len: usize, want: usize| len == 0 || len == want;
         let ok = ws.cx.len() == n
-            && ws.cx_bar.len() == n
-            && ws.scratch.len() == n
+            && vjp_ok(ws.cx_bar.len(), n)
+            && vjp_ok(ws.scratch.len(), n)
             && ws.bf.len() == m * f
-            && ws.bf_bar.len() == m * f
-            && [&ws.env, &ws.env_bar, &ws.db, &ws.db_bar]
-                .iter()
-                .all(|v| v.len() == m);
+            && vjp_ok(ws.bf_bar.len(), m * f)
+            && [&ws.env, &ws.db].iter().all(|v| v.len() == m)
+            && [&ws.env_bar, &ws.db_bar].iter().all(|v| vjp_ok(v.len(), m));
         if ok {
             Ok(())
         } else {
@@ -487,6 +501,7 @@ impl BMode {
             )));
         }
         self.check_workspace(ws)?;
+        self.vjp_buffers(ws);
         let (nz, nx) = self.image_shape();
         if d_image.len() != nz * nx {
             return Err(SignalError::Invalid(format!(

@@ -73,17 +73,29 @@ pub fn beamform_to(
         .context("setting up the beamformer from the scene's [imaging]")?;
     let mut ws = op.workspace();
     let image = op.forward(channels, &mut ws)?;
-    image.write_npy(out.path("bmode.npy"))?;
-    image.write_png(out.path("bmode.png"))?;
     let grid = Grid::from_settings(&settings)?;
-    for name in ["bmode_figure.png", "bmode_figure.svg"] {
+    let figure = |name: &str| {
         bmode_figure(
             &out.path(name),
             &grid,
             &image.data,
             settings.dynamic_range_db,
             title,
-        )?;
-    }
+        )
+    };
+    // The four files are independent: written side by side.
+    let ((npy, png), (fig_png, fig_svg)) = rayon::join(
+        || {
+            rayon::join(
+                || image.write_npy(out.path("bmode.npy")),
+                || image.write_png(out.path("bmode.png")),
+            )
+        },
+        || rayon::join(|| figure("bmode_figure.png"), || figure("bmode_figure.svg")),
+    );
+    npy?;
+    png?;
+    fig_png?;
+    fig_svg?;
     Ok((image.nz, image.nx))
 }
