@@ -311,7 +311,7 @@ fn copper_block_surface_at_its_stated_depth() {
     let Some(path) = usray_testdata::data_file("real/ArrayCuBlockStationary.mat") else {
         return;
     };
-    let e = usray::signal::import_mat(&path).unwrap_err().to_string();
+    let e = import_mat(&path).unwrap_err().to_string();
     assert!(e.contains("pitch"), "{e}");
     let opts = usray::signal::ImportOptions {
         pitch_m: Some(1e-3),
