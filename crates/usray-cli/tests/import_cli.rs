@@ -15,9 +15,10 @@ fn sidecar(path: &std::path::Path) -> serde_json::Value {
 }
 
 /// `ArraySteelPins.mat` stores neither pitch nor centre frequency: without flags
-/// the error names the flag to pass; with `--pitch 1e-3 --fc 3.5e6` (the values
-/// `../shared/data/real/README.md` confirms) it imports, and the sidecar records
-/// both values and that they came from the user.
+/// the error names `--pitch`; with `--pitch 1e-3` alone it imports with the centre
+/// frequency estimated from the samples (and says so); with `--pitch 1e-3 --fc
+/// 3.5e6` (the values `../shared/data/real/README.md` confirms) the sidecar
+/// records both values and that they came from the user.
 #[test]
 fn full_matrix_file_imports_with_pitch_and_fc_flags() {
     let Some(file) = usray_testdata::data_file("real/ArraySteelPins.mat") else {
@@ -31,12 +32,27 @@ fn full_matrix_file_imports_with_pitch_and_fc_flags() {
     let o = usray(&["import", f, "--out", o_s, "--quiet"]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("--fc"), "{err}");
-
-    let o = usray(&["import", f, "--fc", "3.5e6", "--out", o_s, "--quiet"]);
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--pitch"), "{err}");
+
+    let est = dir.path().join("estimated");
+    let o = usray(&[
+        "import",
+        f,
+        "--pitch",
+        "1e-3",
+        "--out",
+        est.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v = sidecar(&est.join("ArraySteelPins.json"));
+    assert!(
+        v["source"]["fc_note"]
+            .as_str()
+            .unwrap()
+            .contains("estimated"),
+        "{v}"
+    );
 
     let o = usray(&[
         "import", f, "--pitch", "1e-3", "--fc", "3.5e6", "--out", o_s, "--quiet",

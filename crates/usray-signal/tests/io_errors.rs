@@ -327,7 +327,10 @@ fn real_mat_truncated_is_an_error() {
     // The FMC files do not store the pitch (nor, for the pins, fc): refused, named.
     if let Some(fmc) = usray_testdata::data_file("real/ArraySteelPins.mat") {
         let e = import_mat(fmc).unwrap_err().to_string();
-        assert!(e.contains("ArraySteelPins.mat") && e.contains("fc"), "{e}");
+        assert!(
+            e.contains("ArraySteelPins.mat") && e.contains("pitch"),
+            "{e}"
+        );
         let opts = usray_signal::ImportOptions {
             center_frequency_hz: Some(3.5e6),
             ..Default::default()

@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use super::samples::estimate_center_frequency;
 use super::{validated, ImportOptions};
 use crate::channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta, CHANNELS_FORMAT};
 use crate::error::{Result, SignalError};
@@ -50,17 +51,14 @@ pub(super) fn import(path: &Path, vars: &MatFile, options: &ImportOptions) -> Re
         )));
     }
     let ne = ne as usize;
-    let fc = options
+    let stated_fc = options
         .center_frequency_hz
-        .or_else(|| get(vars, "fc").and_then(|v| v.scalar()))
-        .ok_or_else(|| {
-            err("full-matrix capture: no `fc` in the file; pass the centre frequency (`usray import --fc HZ`, or ImportOptions::center_frequency_hz)".into())
-        })?;
+        .or_else(|| get(vars, "fc").and_then(|v| v.scalar()));
     let pitch = options.pitch_m.ok_or_else(|| {
         err("full-matrix capture: the element pitch is not stored in the file; pass it (`usray import --pitch METRES`, or ImportOptions::pitch_m)".into())
     })?;
-    if !(fs > 0.0 && c > 0.0 && fc > 0.0 && pitch > 0.0 && ne > 0) {
-        return Err(err(format!("full-matrix capture: non-positive fs {fs}, cp {c}, fc {fc}, pitch {pitch} or nTotElem {ne}")));
+    if !(fs > 0.0 && c > 0.0 && stated_fc.is_none_or(|f| f > 0.0) && pitch > 0.0 && ne > 0) {
+        return Err(err(format!("full-matrix capture: non-positive fs {fs}, cp {c}, fc {stated_fc:?}, pitch {pitch} or nTotElem {ne}")));
     }
     let Some(MatValue::Cell { cells, .. }) = get(vars, "data") else {
         return Err(err("`data` is not a cell array".into()));
@@ -104,11 +102,28 @@ pub(super) fn import(path: &Path, vars: &MatFile, options: &ImportOptions) -> Re
             *s += v;
         }
     }
+    // Without a stated centre frequency, the samples' own (as for plane waves).
+    let (fc, fc_note) = match stated_fc {
+        Some(f) => (f, "stated (the file's `fc` or --fc)".to_string()),
+        None => {
+            let f = estimate_center_frequency(&sum, ns, fs).ok_or_else(|| {
+                err("full-matrix capture: no `fc` in the file and the samples are silent; pass --fc".into())
+            })?;
+            (
+                f,
+                format!(
+                    "{:.4} MHz estimated from the samples (middle of the -6 dB band of their spectrum); pass --fc to set it",
+                    f / 1e6
+                ),
+            )
+        }
+    };
     let mut extra = serde_json::Map::new();
     extra.insert(
         "source".into(),
         serde_json::json!({
             "file": path.file_name().map(|f| f.to_string_lossy().into_owned()),
+            "fc_note": fc_note,
             "layout": "full-matrix capture data{k}(time, rx), summed over k to a 0-degree plane wave",
             "clock": "t0_s = MWB; the transducer's pulse-centre delay is unknown and not corrected",
             "overrides": options.overrides(),

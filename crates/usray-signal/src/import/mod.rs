@@ -154,7 +154,8 @@ pub fn import_mat(path: impl AsRef<Path>) -> Result<ChannelData> {
 /// after the excitation), `cp` (m/s), `nTotElem`, optional `fc` (Hz); the sum
 /// over transmits `Σ_k data{k}` is the 0° plane wave fired by all elements at
 /// once, so `t0_s = MWB`. The pitch is required from `options.pitch_m`; the
-/// element width is set to the pitch.
+/// element width is set to the pitch; without `fc` in the file or the options,
+/// the centre frequency is estimated from the samples as for plane waves.
 ///
 /// Errors name the file and what is missing or unmappable.
 pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Result<ChannelData> {
