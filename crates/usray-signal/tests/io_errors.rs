@@ -342,6 +342,22 @@ fn real_mat_truncated_is_an_error() {
         .unwrap_err()
         .to_string();
         assert!(e.contains("pitch"), "{e}");
+        // An option a full-matrix capture does not use is refused, not ignored.
+        let opts = usray_signal::ImportOptions {
+            pitch_m: Some(1e-3),
+            angles_rad: Some(vec![0.1]),
+            ..Default::default()
+        };
+        let e = usray_signal::import_mat_with(
+            usray_testdata::data_file("real/ArraySteelPins.mat").unwrap(),
+            &opts,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("--angles-deg") && e.contains("full-matrix"),
+            "{e}"
+        );
     }
 }
 

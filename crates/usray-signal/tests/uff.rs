@@ -201,3 +201,29 @@ fn irregular_frames_are_not_written() {
     assert!(e.contains("frame 1") && e.contains("frames.uff"), "{e}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+/// An option a UFF file's import does not use (the file states the clock,
+/// angles and layout) is refused naming the flag, not silently ignored.
+#[test]
+fn options_a_uff_import_does_not_use_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("s.uff");
+    export_uff(&p, &small()).unwrap();
+    let with = |o: usray_signal::ImportOptions| usray_signal::import_uff_with(&p, &o);
+    assert!(with(usray_signal::ImportOptions {
+        center_frequency_hz: Some(4e6),
+        ..Default::default()
+    })
+    .is_ok());
+    let e = with(usray_signal::ImportOptions {
+        t0_s: Some(0.0),
+        axes: Some(vec![usray_signal::import::Axis::Samples]),
+        ..Default::default()
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("--axes") && e.contains("--t0") && e.contains("UFF"),
+        "{e}"
+    );
+}

@@ -22,6 +22,12 @@ pub(super) fn is_full_matrix_capture(vars: &MatFile) -> bool {
 /// Imports the full-matrix capture in `vars` (layout in [`super::import_mat_with`]).
 pub(super) fn import(path: &Path, vars: &MatFile, options: &ImportOptions) -> Result<ChannelData> {
     let err = |w: String| SignalError::format(path, w);
+    options
+        .refuse_unused(
+            "a full-matrix capture",
+            &["--fs", "--fc", "--c", "--pitch", "--t0"],
+        )
+        .map_err(err)?;
     let scalar = |name: &str| -> Result<f64> {
         get(vars, name)
             .and_then(|v| v.scalar())

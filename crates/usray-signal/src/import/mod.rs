@@ -98,6 +98,43 @@ impl ImportOptions {
         serde_json::Value::Object(m)
     }
 
+    /// An error naming every option set that a `layout` does not use (`used`
+    /// lists the ones it does, by flag): an option silently ignored would leave
+    /// the user believing it took effect.
+    pub(crate) fn refuse_unused(
+        &self,
+        layout: &str,
+        used: &[&str],
+    ) -> std::result::Result<(), String> {
+        let set = [
+            ("--rf", self.rf.is_some()),
+            ("--param", self.param.is_some()),
+            ("--axes", self.axes.is_some()),
+            ("--fs", self.sampling_frequency_hz.is_some()),
+            ("--fc", self.center_frequency_hz.is_some()),
+            ("--c", self.sound_speed_m_s.is_some()),
+            ("--pitch", self.pitch_m.is_some()),
+            ("--width", self.element_width_m.is_some()),
+            ("--angles-deg", self.angles_rad.is_some()),
+            ("--t0", self.t0_s.is_some()),
+            ("--offset", self.sample_offset.is_some()),
+        ];
+        let unused: Vec<&str> = set
+            .iter()
+            .filter(|(flag, on)| *on && !used.contains(flag))
+            .map(|(flag, _)| *flag)
+            .collect();
+        if unused.is_empty() {
+            Ok(())
+        } else {
+            Err(format!(
+                "{} do(es) not apply to {layout} (it takes {})",
+                unused.join(", "),
+                used.join(", ")
+            ))
+        }
+    }
+
     /// An error naming the first flag that is not a finite number in its
     /// physical sign (positive, or any finite value for t0, offset and angles).
     pub fn check(&self) -> std::result::Result<(), String> {
