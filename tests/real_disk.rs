@@ -147,15 +147,8 @@ fn pwi_disk_radius() {
     let ns = ch.n_samples;
     let demod = IqDemod::new(fc, fs, bw * fc / 2.0, 5).unwrap();
     let mut iq = vec![Complex64::new(0.0, 0.0); ch.samples.len()];
-    let (mut re, mut im) = (vec![0.0; ns], vec![0.0; ns]);
     for (rec, out) in iq.chunks_mut(ns).enumerate() {
-        demod.forward(
-            &ch.samples[rec * ns..(rec + 1) * ns],
-            ch.meta.t0_s,
-            &mut re,
-            &mut im,
-            out,
-        );
+        demod.forward(&ch.samples[rec * ns..(rec + 1) * ns], ch.meta.t0_s, out);
     }
     // One frame at a time (the disk moves between frames): mean envelope, F# 1.
     let (x, z) = (linspace(-15e-3, 15e-3, 151), linspace(5e-3, 40e-3, 176));

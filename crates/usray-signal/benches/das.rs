@@ -48,13 +48,10 @@ fn main() {
     );
     let d = IqDemod::new(fc, fs, 0.77 * fc / 2.0, 5).unwrap();
     let mut iq = vec![Complex64::new(0.0, 0.0); ch.samples.len()];
-    let (mut re, mut im) = (vec![0.0; ns], vec![0.0; ns]);
     for (rec, o) in iq.chunks_mut(ns).enumerate() {
         d.forward(
             &ch.samples[rec * ns..(rec + 1) * ns],
             ch.meta.t0_for(rec / 128),
-            &mut re,
-            &mut im,
             o,
         );
     }

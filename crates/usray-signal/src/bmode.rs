@@ -436,15 +436,13 @@ impl BMode {
         ws.cx.par_chunks_mut(ns).enumerate().for_each_init(
             || {
                 (
-                    vec![0.0; ns],
-                    vec![0.0; ns],
                     vec![0.0; if gain.is_some() { ns } else { 0 }],
                     self.analytic
                         .as_ref()
                         .map(|a| vec![Complex64::new(0.0, 0.0); a.scratch_len()]),
                 )
             },
-            |(re, im, gained, fsc), (rec, out)| {
+            |(gained, fsc), (rec, out)| {
                 let t = rec / ne;
                 let mut src = &ch.samples[rec * ns..(rec + 1) * ns];
                 if let Some(g) = gain {
@@ -454,7 +452,7 @@ impl BMode {
                     src = gained;
                 }
                 if let Some(d) = &self.demod {
-                    d.forward_mixed(src, &self.mixing[t], re, im, out);
+                    d.forward_mixed(src, &self.mixing[t], out);
                 } else if let (Some(a), Some(sc)) = (&self.analytic, fsc.as_mut()) {
                     a.forward(src, out, sc);
                 }
@@ -578,18 +576,14 @@ impl BMode {
             .enumerate()
             .for_each_init(
                 || {
-                    (
-                        vec![0.0; ns],
-                        vec![0.0; ns],
-                        self.analytic
-                            .as_ref()
-                            .map(|a| vec![Complex64::new(0.0, 0.0); a.scratch_len()]),
-                    )
+                    self.analytic
+                        .as_ref()
+                        .map(|a| vec![Complex64::new(0.0, 0.0); a.scratch_len()])
                 },
-                |(re, im, fsc), (rec, (dst, cb))| {
+                |fsc, (rec, (dst, cb))| {
                     let t = rec / ne;
                     if let Some(d) = &self.demod {
-                        d.vjp_mixed(cb, &self.mixing[t], re, im, dst);
+                        d.vjp_mixed(cb, &self.mixing[t], dst);
                     } else if let (Some(a), Some(sc)) = (&self.analytic, fsc.as_mut()) {
                         a.vjp(cb, dst, sc);
                     }

@@ -55,69 +55,36 @@ impl IqDemod {
             .collect()
     }
 
-    /// Forward on one record starting at absolute time `t0`. `re`, `im` are scratch
-    /// of the record's length; the result is written to `out`.
-    pub fn forward(
-        &self,
-        rf: &[f64],
-        t0: f64,
-        re: &mut [f64],
-        im: &mut [f64],
-        out: &mut [Complex64],
-    ) {
-        self.forward_mixed(rf, &self.mixing(t0, rf.len()), re, im, out);
+    /// Forward on one record starting at absolute time `t0`, written to `out`.
+    pub fn forward(&self, rf: &[f64], t0: f64, out: &mut [Complex64]) {
+        self.forward_mixed(rf, &self.mixing(t0, rf.len()), out);
     }
 
     /// [`IqDemod::forward`] with the record's mixing phases from
-    /// [`IqDemod::mixing`].
-    pub fn forward_mixed(
-        &self,
-        rf: &[f64],
-        mixing: &[(f64, f64)],
-        re: &mut [f64],
-        im: &mut [f64],
-        out: &mut [Complex64],
-    ) {
-        for (n, (&x, &(s, c))) in rf.iter().zip(mixing).enumerate() {
-            re[n] = x * c;
-            im[n] = -x * s;
+    /// [`IqDemod::mixing`]: mix, low-pass the complex record (real and imaginary
+    /// parts independently), double.
+    pub fn forward_mixed(&self, rf: &[f64], mixing: &[(f64, f64)], out: &mut [Complex64]) {
+        for ((o, &x), &(s, c)) in out.iter_mut().zip(rf).zip(mixing) {
+            *o = Complex64::new(x * c, -x * s);
         }
-        self.lowpass.filtfilt_in_place(re);
-        self.lowpass.filtfilt_in_place(im);
-        for n in 0..rf.len() {
-            out[n] = Complex64::new(2.0 * re[n], 2.0 * im[n]);
+        self.lowpass.filtfilt_in_place(out);
+        for o in out.iter_mut() {
+            *o = Complex64::new(2.0 * o.re, 2.0 * o.im);
         }
     }
 
     /// VJP on one record: given the IQ cotangent, write `r̄f`.
-    pub fn vjp(
-        &self,
-        iq_bar: &[Complex64],
-        t0: f64,
-        re: &mut [f64],
-        im: &mut [f64],
-        rf_bar: &mut [f64],
-    ) {
-        self.vjp_mixed(iq_bar, &self.mixing(t0, rf_bar.len()), re, im, rf_bar);
+    pub fn vjp(&self, iq_bar: &[Complex64], t0: f64, rf_bar: &mut [f64]) {
+        let mut scratch = iq_bar.to_vec();
+        self.vjp_mixed(&mut scratch, &self.mixing(t0, rf_bar.len()), rf_bar);
     }
 
-    /// [`IqDemod::vjp`] with the record's mixing phases from [`IqDemod::mixing`].
-    pub fn vjp_mixed(
-        &self,
-        iq_bar: &[Complex64],
-        mixing: &[(f64, f64)],
-        re: &mut [f64],
-        im: &mut [f64],
-        rf_bar: &mut [f64],
-    ) {
-        for (n, v) in iq_bar.iter().enumerate() {
-            re[n] = v.re;
-            im[n] = v.im;
-        }
-        self.lowpass.filtfilt_vjp_in_place(re);
-        self.lowpass.filtfilt_vjp_in_place(im);
-        for (n, &(s, c)) in mixing.iter().enumerate().take(rf_bar.len()) {
-            rf_bar[n] = 2.0 * (c * re[n] - s * im[n]);
+    /// [`IqDemod::vjp`] with the record's mixing phases from [`IqDemod::mixing`];
+    /// `iq_bar` is overwritten (filtered in place).
+    pub fn vjp_mixed(&self, iq_bar: &mut [Complex64], mixing: &[(f64, f64)], rf_bar: &mut [f64]) {
+        self.lowpass.filtfilt_vjp_in_place(iq_bar);
+        for ((r, v), &(s, c)) in rf_bar.iter_mut().zip(iq_bar.iter()).zip(mixing) {
+            *r = 2.0 * (c * v.re - s * v.im);
         }
     }
 }

@@ -144,13 +144,10 @@ fn points_localised_per_transmit() {
         .unwrap();
         let ns = c1.n_samples;
         let mut iq = vec![Complex64::new(0.0, 0.0); c1.samples.len()];
-        let (mut re, mut im) = (vec![0.0; ns], vec![0.0; ns]);
         for (rec, out) in iq.chunks_mut(ns).enumerate() {
             d.forward(
                 &c1.samples[rec * ns..(rec + 1) * ns],
                 c1.meta.t0_for(0),
-                &mut re,
-                &mut im,
                 out,
             );
         }
