@@ -238,8 +238,9 @@ fn steel_pins_fmc_as_plane_wave() {
         return;
     };
     // The file stores no centre frequency: estimated from the samples, it lands
-    // in the measured spectrum's 3.09 MHz peak to 3.53 MHz centroid (README §2),
-    // within 10 %.
+    // between the measured spectrum's 3.09 MHz peak and 3.53 MHz centroid
+    // (README §2), widened by the estimator's 3 % accuracy on a known pulse
+    // (`import::samples` unit test).
     let pitch_only = usray::signal::ImportOptions {
         pitch_m: Some(1e-3),
         ..Default::default()
@@ -249,7 +250,7 @@ fn steel_pins_fmc_as_plane_wave() {
         .meta
         .center_frequency_hz;
     eprintln!("pins: centre frequency estimated at {:.3} MHz", fc / 1e6);
-    assert!((0.9 * 3.09e6..=1.1 * 3.53e6).contains(&fc), "{fc} Hz");
+    assert!((0.97 * 3.09e6..=1.03 * 3.53e6).contains(&fc), "{fc} Hz");
     let opts = usray::signal::ImportOptions {
         pitch_m: Some(1e-3),
         center_frequency_hz: Some(3.5e6),
@@ -333,7 +334,11 @@ fn copper_block_surface_at_its_stated_depth() {
     // The surface echo: the rows (envelope summed across x) within 6 dB of the
     // brightest. The clipped, three-cycle echo has several envelope lobes, so its
     // extent is tested, not its brightest row: it must hold the stated depth and
-    // be no longer than the pulse and its clipping make it.
+    // be no longer than the pulse and its clipping make it — the clipped span
+    // 31.9–33.5 µs (README §3 pitfall 2; 1.2 mm at 1480 m/s, two-way), plus the
+    // three-cycle pulse (0.86 µs, 0.64 mm), plus the IQ low-pass's spread (its
+    // cut-off fc/2 = 1.75 MHz, about 1 µs, 0.7 mm, forward and backward): 2.5 mm,
+    // rounded up to 3 mm.
     let env = ws.envelope();
     let rows: Vec<f64> = (0..img.nz)
         .map(|iz| env[iz * img.nx..(iz + 1) * img.nx].iter().sum::<f64>())

@@ -17,30 +17,7 @@
 
 use rustfft::num_complex::Complex64;
 
-/// A sample a real filter runs on: `f64`, or `Complex64`, whose real and imaginary
-/// parts are filtered independently (one pass over an IQ record instead of two,
-/// with the same arithmetic on each part).
-pub trait Filtered:
-    Copy
-    + core::ops::Add<Output = Self>
-    + core::ops::Sub<Output = Self>
-    + core::ops::Mul<f64, Output = Self>
-{
-    /// Zero.
-    fn zero() -> Self;
-}
-
-impl Filtered for f64 {
-    fn zero() -> Self {
-        0.0
-    }
-}
-
-impl Filtered for Complex64 {
-    fn zero() -> Self {
-        Complex64::new(0.0, 0.0)
-    }
-}
+use crate::das::Sample;
 
 /// One biquad `b0 + b1 z⁻¹ + b2 z⁻² / (1 + a1 z⁻¹ + a2 z⁻²)`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,28 +104,30 @@ impl Sos {
     }
 
     /// Causal filtering in place, zero initial state (direct form II transposed).
-    pub fn filter_in_place<T: Filtered>(&self, x: &mut [T]) {
+    /// Runs on real samples or on complex ones (an IQ record: real and imaginary
+    /// parts filtered independently, in one pass).
+    pub fn filter_in_place<T: Sample>(&self, x: &mut [T]) {
         for s in &self.sections {
             let (mut z1, mut z2) = (T::zero(), T::zero());
             for v in x.iter_mut() {
                 let xi = *v;
-                let y = xi * s.b[0] + z1;
-                z1 = xi * s.b[1] - y * s.a[0] + z2;
-                z2 = xi * s.b[2] - y * s.a[1];
+                let y = xi.scale(s.b[0]) + z1;
+                z1 = xi.scale(s.b[1]) - y.scale(s.a[0]) + z2;
+                z2 = xi.scale(s.b[2]) - y.scale(s.a[1]);
                 *v = y;
             }
         }
     }
 
     /// Anti-causal filtering in place (the causal filter on the reversed record).
-    pub fn filter_reverse_in_place<T: Filtered>(&self, x: &mut [T]) {
+    pub fn filter_reverse_in_place<T: Sample>(&self, x: &mut [T]) {
         x.reverse();
         self.filter_in_place(x);
         x.reverse();
     }
 
     /// Zero-phase forward–backward filtering in place: `x ← R F R F x`.
-    pub fn filtfilt_in_place<T: Filtered>(&self, x: &mut [T]) {
+    pub fn filtfilt_in_place<T: Sample>(&self, x: &mut [T]) {
         self.filter_in_place(x);
         self.filter_reverse_in_place(x);
     }
@@ -156,7 +135,7 @@ impl Sos {
     /// VJP of [`Sos::filtfilt_in_place`]: the same operator (it is symmetric, see the
     /// module documentation). Written out as the transpose, `Fᵀ (R F R)ᵀ`, i.e. the
     /// forward pass then the reverse pass again.
-    pub fn filtfilt_vjp_in_place<T: Filtered>(&self, ybar: &mut [T]) {
+    pub fn filtfilt_vjp_in_place<T: Sample>(&self, ybar: &mut [T]) {
         // (RFR)ᵀ = R Fᵀ R = F  then  Fᵀ = R F R.
         self.filter_in_place(ybar);
         self.filter_reverse_in_place(ybar);

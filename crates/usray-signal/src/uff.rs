@@ -84,7 +84,8 @@ pub fn import_uff(path: impl AsRef<Path>) -> Result<ChannelData> {
 pub fn import_uff_with(path: impl AsRef<Path>, options: &ImportOptions) -> Result<ChannelData> {
     let path = path.as_ref();
     options
-        .refuse_unused("a UFF file", &["--fc", "--pitch"])
+        .check()
+        .and_then(|()| options.refuse_unused("a UFF file", &["--fc", "--pitch"]))
         .map_err(|w| SignalError::format(path, w))?;
     let data = read_channel_data(path, options).map_err(|w| SignalError::format(path, w))?;
     validated(path, data)

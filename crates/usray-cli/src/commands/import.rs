@@ -8,9 +8,9 @@ use usray_signal::import::Axis;
 use usray_signal::{import_mat_with, import_uff_with, write_channels, ImportOptions};
 
 impl ImportFlags {
-    /// The flags as the library's options, checked.
+    /// The flags as the library's options (which checks their values).
     pub fn options(&self) -> Result<ImportOptions> {
-        let options = ImportOptions {
+        Ok(ImportOptions {
             rf: self.rf.clone(),
             param: self.param.clone(),
             axes: self
@@ -30,9 +30,7 @@ impl ImportFlags {
                 .map(|a| a.iter().map(|d| d.to_radians()).collect()),
             t0_s: self.t0,
             sample_offset: self.offset,
-        };
-        options.check().map_err(anyhow::Error::msg)?;
-        Ok(options)
+        })
     }
 }
 

@@ -64,38 +64,50 @@ pub struct ImportOptions {
 }
 
 impl ImportOptions {
+    /// Every option that is set: its flag, its key in `source.overrides`, its
+    /// value. One table, so the record and the refusal of unused options
+    /// cannot disagree.
+    fn set(&self) -> Vec<(&'static str, &'static str, serde_json::Value)> {
+        use serde_json::Value;
+        let num = |v: Option<f64>| v.map(Value::from);
+        [
+            ("--rf", "rf", self.rf.as_deref().map(Value::from)),
+            ("--param", "param", self.param.as_deref().map(Value::from)),
+            (
+                "--axes",
+                "axes",
+                self.axes.as_deref().map(|a| axes::join(a).into()),
+            ),
+            (
+                "--fs",
+                "sampling_frequency_hz",
+                num(self.sampling_frequency_hz),
+            ),
+            ("--fc", "center_frequency_hz", num(self.center_frequency_hz)),
+            ("--c", "sound_speed_m_s", num(self.sound_speed_m_s)),
+            ("--pitch", "pitch_m", num(self.pitch_m)),
+            ("--width", "element_width_m", num(self.element_width_m)),
+            (
+                "--angles-deg",
+                "angles_rad",
+                self.angles_rad.clone().map(Value::from),
+            ),
+            ("--t0", "t0_s", num(self.t0_s)),
+            ("--offset", "sample_offset", num(self.sample_offset)),
+        ]
+        .into_iter()
+        .filter_map(|(flag, key, v)| v.map(|v| (flag, key, v)))
+        .collect()
+    }
+
     /// The values set, as the output's `source.overrides` records them.
     pub(crate) fn overrides(&self) -> serde_json::Value {
-        let mut m = serde_json::Map::new();
-        let mut put = |k: &str, v: serde_json::Value| {
-            m.insert(k.into(), v);
-        };
-        if let Some(v) = &self.rf {
-            put("rf", v.as_str().into());
-        }
-        if let Some(v) = &self.param {
-            put("param", v.as_str().into());
-        }
-        if let Some(v) = &self.axes {
-            put("axes", axes::join(v).into());
-        }
-        for (k, v) in [
-            ("sampling_frequency_hz", self.sampling_frequency_hz),
-            ("center_frequency_hz", self.center_frequency_hz),
-            ("sound_speed_m_s", self.sound_speed_m_s),
-            ("pitch_m", self.pitch_m),
-            ("element_width_m", self.element_width_m),
-            ("t0_s", self.t0_s),
-            ("sample_offset", self.sample_offset),
-        ] {
-            if let Some(v) = v {
-                put(k, v.into());
-            }
-        }
-        if let Some(v) = &self.angles_rad {
-            put("angles_rad", v.clone().into());
-        }
-        serde_json::Value::Object(m)
+        serde_json::Value::Object(
+            self.set()
+                .into_iter()
+                .map(|(_, key, v)| (key.to_string(), v))
+                .collect(),
+        )
     }
 
     /// An error naming every option set that a `layout` does not use (`used`
@@ -106,23 +118,11 @@ impl ImportOptions {
         layout: &str,
         used: &[&str],
     ) -> std::result::Result<(), String> {
-        let set = [
-            ("--rf", self.rf.is_some()),
-            ("--param", self.param.is_some()),
-            ("--axes", self.axes.is_some()),
-            ("--fs", self.sampling_frequency_hz.is_some()),
-            ("--fc", self.center_frequency_hz.is_some()),
-            ("--c", self.sound_speed_m_s.is_some()),
-            ("--pitch", self.pitch_m.is_some()),
-            ("--width", self.element_width_m.is_some()),
-            ("--angles-deg", self.angles_rad.is_some()),
-            ("--t0", self.t0_s.is_some()),
-            ("--offset", self.sample_offset.is_some()),
-        ];
-        let unused: Vec<&str> = set
-            .iter()
-            .filter(|(flag, on)| *on && !used.contains(flag))
-            .map(|(flag, _)| *flag)
+        let unused: Vec<&str> = self
+            .set()
+            .into_iter()
+            .map(|(flag, _, _)| flag)
+            .filter(|flag| !used.contains(flag))
             .collect();
         if unused.is_empty() {
             Ok(())
