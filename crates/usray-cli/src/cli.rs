@@ -90,8 +90,9 @@ pub enum Command {
         #[command(flatten)]
         common: Common,
     },
-    /// Trace a scene: writes channels.npy/.json, bmode.npy, bmode.png and render.json
-    /// (rays traced, seconds, rays per second).
+    /// Trace a scene: writes channels.npy/.json, bmode.npy, bmode.png, the B-mode figure
+    /// (bmode_figure.png/.svg: mm axes, dB bar) and render.json (rays traced, seconds,
+    /// rays per second).
     Render {
         /// Scene file (TOML, CONTRACT §3).
         scene: PathBuf,
@@ -102,8 +103,8 @@ pub enum Command {
         #[command(flatten)]
         common: Common,
     },
-    /// Form a B-mode (bmode.npy, bmode.png) from any channel data (CONTRACT §2), on
-    /// the imaging grid of the scene's [imaging] table.
+    /// Form a B-mode (bmode.npy, bmode.png, bmode_figure.png/.svg) from any channel
+    /// data (CONTRACT §2), on the imaging grid of the scene's [imaging] table.
     Beamform {
         /// Channel data: the .json sidecar (its .npy sits beside it).
         channels: PathBuf,
@@ -169,8 +170,8 @@ pub enum Command {
         #[arg(long, value_delimiter = ',', required = true)]
         params: Vec<String>,
         /// Also sweep finite-difference step sizes next to the AD gradient (central
-        /// differences of the same fixed-seed pipeline, nine steps from 10% of each
-        /// parameter's range down to 1e-5 of it) and plot FD vs AD.
+        /// differences of the same fixed-seed pipeline, eight steps from 1e-2 of each
+        /// parameter's range down to 1e-9 of it) and plot FD vs AD.
         #[arg(long)]
         fd_sweep: bool,
         /// Rays, seed and sampler.

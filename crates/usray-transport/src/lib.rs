@@ -70,11 +70,11 @@
 //!   continuations at every interface (no reflect-or-transmit choice; see
 //!   [`ggx::Interface::scatter`]). Spreading is carried by ray density; receiver
 //!   connections use the element's solid angle `A_e cos θ_e / r²`.
-//! - **Emission** (`acquisition.emission`): `"cosine"` (default, the paper's
-//!   element lobe `max(0, n·ω)` importance-sampled on the full 3-D
-//!   cosine-weighted hemisphere: no restriction in elevation) or `"plane_wave"`
-//!   (a collimated bundle along the steering direction, weight `cos θ`; the
-//!   shipped scenes use it: the cosine model leaves incoherent off-axis echoes
+//! - **Emission** (`acquisition.emission`): `"plane_wave"` (default: a
+//!   collimated bundle along the steering direction, weight `cos θ`) or
+//!   `"cosine"` (the paper's element lobe `max(0, n·ω)` importance-sampled on
+//!   the full 3-D cosine-weighted hemisphere: no restriction in elevation; the
+//!   cosine model leaves incoherent off-axis echoes
 //!   as noise, about −6 dB in the cylinder's lumen at 200 rays/element against
 //!   −59 dB for the bundle). Emission points cover the element face
 //!   (`element_width_m × elevation_m`) in both.
