@@ -45,7 +45,7 @@ pub struct Candidate {
     /// Other scene values set with the switch (e.g. the scatterer density).
     pub fixed: Vec<(String, f64)>,
     /// Learning rate of the strength in a confirming refit, in fractions of
-    /// [`Candidate::range`] per step ([`EFFECT_LEARNING_RATE`] unless the loss's
+    /// [`Candidate::range`] per step (0.05 unless the loss's
     /// basin is narrower than the range, as for a wall).
     pub learning_rate: f64,
 }

@@ -73,7 +73,7 @@ pub struct Regions {
 /// ```
 ///
 /// # Panics
-/// If the slices differ in length (checked by [`analyse_residual`]).
+/// If the slices differ in length (checked by [`super::analyse_residual`]).
 pub fn pixel_contributions(loss: &L1L2, simulated: &[f64], measured: &[f64]) -> Vec<f64> {
     assert_eq!(simulated.len(), measured.len(), "image sizes differ");
     let n = simulated.len().max(1) as f64;
