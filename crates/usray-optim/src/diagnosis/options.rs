@@ -119,7 +119,10 @@ impl DiagnoseOptions {
     /// `held_out_seeds` of 0, a `noise_share` outside (0, 1), a time budget
     /// that is not a positive number, or held-out data of another size than
     /// `measured`.
-    pub fn held_out_data<'a>(&'a self, measured: &'a [f64]) -> Result<&'a [f64], OptimError> {
+    pub(crate) fn held_out_data<'a>(
+        &'a self,
+        measured: &'a [f64],
+    ) -> Result<&'a [f64], OptimError> {
         let opts = self;
         if opts.spread_pairs == 0 {
             return Err(OptimError::Diagnosis(

@@ -23,8 +23,10 @@ use usray_transport::{RenderOptions, Scene};
 /// on without it.
 ///
 /// # Errors
-/// `spread_pairs` of 0, a parameter the scene does not have, a measured image of the wrong shape, or
-/// a failing calibration.
+/// Settings it cannot run with (`spread_pairs` or `held_out_seeds` of 0, a
+/// `noise_share` outside (0, 1), a budget that is not a positive number,
+/// held-out data of another size), a parameter the scene does not have, a
+/// measured image of the wrong shape, or a failing calibration.
 pub fn diagnose(
     scene: &Scene,
     measured: &[f64],
