@@ -11,7 +11,7 @@ use usray::optim::blind::{
 };
 use usray::optim::{
     catalogue, default_free_params, diagnose, parameter_candidates, score_candidate, Candidate,
-    DiagnoseOptions, Diagnosis, Journal, LossSetup, Objective, TIE_MARGIN,
+    DiagnoseOptions, Diagnosis, Journal, LossSetup, Objective,
 };
 use usray::transport::{RenderOptions, Scene};
 
@@ -414,10 +414,11 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
         1.04 * c0
     );
     // A cut of the loss the diagnosis would count as an explanation, and one that
-    // exceeds the null-only score by more than the verdict's tie margin.
+    // exceeds the null-only score by more than the verdict's tie margin (0.05:
+    // shrinks closer than that are reported as alternatives).
     let real_cut = DiagnoseOptions::default().rule.min_excess;
     assert!(several.score > real_cut, "score {}", several.score);
-    assert!(several.score > one.score + TIE_MARGIN);
+    assert!(several.score > one.score + 0.05);
 }
 
 /// An attenuation inside the object: the loss falls almost linearly from the null

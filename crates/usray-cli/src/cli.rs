@@ -294,7 +294,7 @@ pub enum Command {
         /// deviation) before every loss, so that speckle and electronic noise,
         /// which no simulation reproduces pixel for pixel, average out; 0 (the
         /// default) compares pixel by pixel. 0.5 is the tested value.
-        #[arg(long, value_name = "WAVELENGTHS", default_value_t = usray_optim::DEFAULT_SMOOTHING_WAVELENGTHS)]
+        #[arg(long, value_name = "WAVELENGTHS", default_value_t = usray_optim::DiagnoseOptions::default().smoothing_wavelengths)]
         smoothing: f64,
         /// Floor both images at the measurement's noise level (estimated after
         /// the calibration where the model's image is empty), so that differences

@@ -10,7 +10,7 @@
 //! |---|---|---|
 //! | `wall_thickness` | first cylinder's `thickness_m` | [0.25, 0.4] × radius |
 //! | `attenuation` | the medium's and every material's `attenuation_db_cm_mhz` | [0.5, 1.5] dB/(cm·MHz) |
-//! | `volume_scattering` | first object material's scatterers, density [`crate::SCATTERER_DENSITY_PER_MM3`] | strength [0.17, 0.51] |
+//! | `volume_scattering` | first object material's scatterers, density that of the diagnosis's `volume_scattering` candidate (5 per mm³) | strength [0.17, 0.51] |
 //! | `sound_speed` | medium speed, beamformer kept | ±[3, 6] % |
 //! | `depth_gain` | `acquisition.depth_gain_db_per_cm` | [3, 6] dB/cm ([`BlindOptions::depth_gain_db_per_cm`]) |
 //! | `pulse_length` | `probe.cycles` | [1.5, 2] × base |
@@ -172,7 +172,7 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
             let s = 0.17 + 0.34 * u;
             scene.set(
                 &format!("materials.{m}.scatterer_density_per_mm3"),
-                crate::SCATTERER_DENSITY_PER_MM3,
+                crate::diagnosis::SCATTERER_DENSITY_PER_MM3,
             )?;
             scene.set(&format!("materials.{m}.scatterer_strength"), s)?;
             s

@@ -2,8 +2,8 @@
 //!
 //! Parameter ranges and the paper's `[0, 1]` clip map, image losses with their
 //! gradients, Adam with parameter groups and gradient clipping, and finite-difference
-//! sweeps to check AD gradients. The fit loop and the sim-to-real diagnosis build on
-//! these (issues 5 and 6).
+//! sweeps to check AD gradients. The fit loop and the sim-to-real diagnosis
+//! ([`diagnosis`], with its report) build on these.
 //!
 //! ```
 //! use usray_optim::{Adam, AdamGroup, L1L2, ParamMap, ParamSpec};
@@ -31,50 +31,42 @@
 //! ```
 
 mod adam;
+#[doc(hidden)]
 pub mod blind;
 mod comparison;
-mod diagnose;
+pub mod diagnosis;
 mod fd;
 mod fit;
 mod journal;
 mod loss;
 mod mirror;
-mod noise_budget;
 mod objective;
-mod parameter_candidates;
 mod params;
 mod reference;
-pub mod residual;
 mod spread;
 
 pub use adam::{Adam, AdamGroup, AdamState};
 pub use comparison::{noise_floor, Comparison, MAX_NOISE_FLOOR, MIN_DARK_SHARE, MODEL_DARK_GREY};
-pub use diagnose::{
+pub use diagnosis::residual;
+pub use diagnosis::residual::{analyse_residual, RegionShare, ResidualOptions, ResidualReport};
+pub use diagnosis::{
     calibration_spec, catalogue, default_free_params, diagnose, diagnose_compound,
-    diagnosis_smoothing, held_out_seed, name_effect, names_an_effect, score_candidate,
-    unnamed_verdict, Calibrated, Candidate, DiagnoseOptions, Diagnosis, EffectResult, LossSetup,
-    NullRefit, Score, Timings, Verdict, VerdictRule, DEFAULT_SMOOTHING_WAVELENGTHS,
-    DEPTH_GAIN_MAX_DB_PER_CM, DETECTION_LIMIT_SPREADS, DIAGNOSIS_OVER_CALIBRATION,
-    EFFECT_LEARNING_RATE, HELD_OUT_SEED_STRIDE, IMPEDANCE_MARGIN, MAX_RAY_FACTOR, MAX_RAY_RAISES,
-    MAX_STEP_HALVINGS, MIN_CHECKED_REDUCTION, SCATTERER_DENSITY_PER_MM3, TIE_MARGIN,
+    diagnosis_smoothing, held_out_seed, name_effect, names_an_effect, noise_exponent,
+    parameter_candidates, rays_needed, score_candidate, simulation_noise_share, unnamed_verdict,
+    Calibrated, Candidate, DiagnoseOptions, Diagnosis, EffectResult, LossSetup, NoiseCheck,
+    NullRefit, Report, Score, Timings, Verdict, VerdictRule,
 };
-pub use fd::{fd_sweep, log_steps, FdPoint};
+pub use fd::{best_fd, fd_sweep, fd_sweeps, log_steps, sweep_steps, FdPoint};
 pub use fit::{fit, fit_journaled, FitOptions, FitResult, FitStep, ParamGroup};
 pub use journal::Journal;
 pub use loss::L1L2;
 pub use mirror::impedance_mirror;
-pub use noise_budget::{
-    noise_exponent, rays_needed, simulation_noise_share, NoiseCheck, DEFAULT_NOISE_EXPONENT,
-    DEFAULT_NOISE_SHARE,
-};
 pub use objective::{
     grid_shape, Evaluation, FdChannels, Objective, PathReplay, TransportGradient,
     PAIRED_SEED_OFFSET,
 };
-pub use parameter_candidates::{parameter_candidates, RELATIVE_RANGE};
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
 pub use reference::{load_reference, load_reference_frames};
-pub use residual::{analyse_residual, RegionShare, ResidualOptions, ResidualReport};
 pub use spread::{linearised_spread, parameter_spread};
 
 /// An error of the calibration layer, with a one-line message.
@@ -98,6 +90,15 @@ pub enum OptimError {
     /// The residual diagnosis got unusable images or options ([`residual`]).
     #[error("diagnosis: {0}")]
     Diagnosis(String),
+    /// A finite-difference sweep ([`fd_sweeps`]) hit a failing render.
+    #[error("finite differences of {path}")]
+    FiniteDifference {
+        /// The parameter being swept.
+        path: String,
+        /// Why its render failed.
+        #[source]
+        source: Box<OptimError>,
+    },
     /// A checkpoint ([`Journal`]) cannot be read, written or resumed from.
     #[error("checkpoint: {0}")]
     Checkpoint(String),

@@ -1,5 +1,6 @@
 //! Shared pieces of `grad`, `fit` and `demo`: building the objective from the
-//! command line, finite-difference sweeps, and the files a fit writes.
+//! command line, and the files a fit and a gradient check write (the
+//! finite-difference sweeps themselves are `usray_optim::fd_sweeps`).
 
 use crate::output::OutDir;
 use crate::plots::{
@@ -8,7 +9,7 @@ use crate::plots::{
 };
 use anyhow::{Context, Result};
 use serde_json::{json, Map, Value};
-use usray_optim::{fd_sweep, log_steps, FdPoint, FitOptions, FitResult, Objective, ParamSpec};
+use usray_optim::{FdPoint, FitOptions, FitResult, Objective, ParamSpec};
 use usray_signal::io::write_bmode_npy;
 use usray_transport::Scene;
 
@@ -51,56 +52,6 @@ pub fn parse_params(scene: &Scene, params: &[String]) -> Result<Vec<ParamSpec>> 
 /// A file-name-safe form of a parameter path.
 pub fn slug(path: &str) -> String {
     path.replace(['.', '/'], "_")
-}
-
-/// The default steps of an FD sweep for a parameter: eight steps from 10⁻² of its
-/// range down to 10⁻⁹ of it, spaced by 10. Large steps show the truncation error
-/// and the visibility jumps the gradient does not see (rays crossing an edge);
-/// small ones the agreement with the fixed-seed derivative, down to round-off.
-pub fn sweep_steps(spec: &ParamSpec) -> Vec<f64> {
-    log_steps(1e-2 * (spec.max - spec.min), 10.0, 8)
-}
-
-/// Central finite differences of the fixed-seed objective along each parameter.
-pub fn fd_sweeps(
-    objective: &Objective,
-    at: &[f64],
-    mut tick: impl FnMut(),
-) -> Result<Vec<Vec<FdPoint>>> {
-    let mut out = Vec::new();
-    for (j, spec) in objective.specs.iter().enumerate() {
-        let mut err = None;
-        let sweep = fd_sweep(
-            |x: &[f64]| {
-                tick();
-                match objective.value(x) {
-                    Ok(e) => e.loss,
-                    Err(e) => {
-                        err.get_or_insert(e);
-                        f64::NAN
-                    }
-                }
-            },
-            at,
-            j,
-            &sweep_steps(spec),
-        );
-        if let Some(e) = err {
-            return Err(e).with_context(|| format!("finite differences of {}", spec.path));
-        }
-        out.push(sweep);
-    }
-    Ok(out)
-}
-
-/// The FD point closest to the AD value (the sweep's best step) and its relative
-/// difference `|FD − AD| / |AD|`.
-pub fn best_fd(sweep: &[FdPoint], ad: f64) -> Option<(FdPoint, f64)> {
-    sweep
-        .iter()
-        .filter(|p| p.fd.is_finite())
-        .min_by(|a, b| (a.fd - ad).abs().total_cmp(&(b.fd - ad).abs()))
-        .map(|p| (*p, (p.fd - ad).abs() / ad.abs().max(f64::MIN_POSITIVE)))
 }
 
 /// `grad.json` exactly as CONTRACT §4.

@@ -1,14 +1,14 @@
 //! `usray demo`: the paper's simulated-to-simulated experiment (§"Simulated to
 //! Simulated") on the built-in cylinder scene, with a report.
 
-use super::calib::{best_fd, fd_sweeps, grad_json, progress_bar, write_sweep_plots};
+use super::calib::{grad_json, progress_bar, write_sweep_plots};
 use super::fit::run_fit;
 use crate::cli::Common;
 use crate::output::{spinner, OutDir};
 use anyhow::{Context, Result};
 use std::fmt::Write as _;
 use std::time::Instant;
-use usray_optim::{FitOptions, Objective, ParamSpec};
+use usray_optim::{best_fd, fd_sweeps, FitOptions, Objective, ParamSpec};
 use usray_transport::scene::Sampler;
 use usray_transport::{RenderOptions, Scene};
 

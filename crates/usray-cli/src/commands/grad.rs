@@ -1,12 +1,11 @@
 //! `usray grad SCENE --reference REF --params P1,P2 [--fd-sweep]`: `grad.json`.
 
-use super::calib::{
-    best_fd, build_objective, fd_sweeps, grad_json, progress_bar, write_sweep_plots,
-};
+use super::calib::{build_objective, grad_json, progress_bar, write_sweep_plots};
 use crate::cli::{Common, Sampling};
 use crate::output::{spinner, OutDir};
 use anyhow::Result;
 use std::path::Path;
+use usray_optim::{best_fd, fd_sweeps, sweep_steps};
 
 /// Gradient of the image loss at the scene's values, optionally with FD sweeps.
 pub fn run(
@@ -23,7 +22,7 @@ pub fn run(
         objective
             .specs
             .iter()
-            .map(|s| 2 * super::calib::sweep_steps(s).len())
+            .map(|s| 2 * sweep_steps(s).len())
             .sum::<usize>()
     } else {
         0
@@ -39,9 +38,7 @@ pub fn run(
     let eval = objective.value_and_gradient(&at)?;
     bar.finish_and_clear();
     let sweeps = if fd_sweep {
-        let n = objective.specs.len() as u64
-            * 2
-            * super::calib::sweep_steps(&objective.specs[0]).len() as u64;
+        let n = objective.specs.len() as u64 * 2 * sweep_steps(&objective.specs[0]).len() as u64;
         let bar = progress_bar(common.quiet, n, "FD sweep");
         let s = fd_sweeps(&objective, &at, || bar.inc(1))?;
         bar.finish_and_clear();

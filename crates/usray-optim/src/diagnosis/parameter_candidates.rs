@@ -9,8 +9,9 @@
 //! roughness already switched on — either way from the scene's value, which is
 //! its null.
 
-use crate::diagnose::{
-    wall_echo_width_m, wall_learning_rate, wall_onsets, Candidate, EFFECT_LEARNING_RATE,
+use super::catalogue::{
+    wall_echo_width_m, wall_learning_rate, wall_onsets, Candidate, DEPTH_GAIN_MAX_DB_PER_CM,
+    EFFECT_LEARNING_RATE,
 };
 use usray_transport::Scene;
 
@@ -18,7 +19,7 @@ use usray_transport::Scene;
 /// candidate (±15%: beyond the spread of soft tissues' speeds, 1450–1640 m/s,
 /// about a nominal 1540 m/s; a probe's actual centre frequency is within
 /// ±15% of its nominal one for the arrays of PyMUST's `getparam`).
-pub const RELATIVE_RANGE: f64 = 0.15;
+const RELATIVE_RANGE: f64 = 0.15;
 
 /// The parameter candidates of `scene` whose paths are not in `calibrated`
 /// (module docs). Each has the scene's value as its null and as its first
@@ -175,7 +176,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candida
     let path = "acquisition.depth_gain_db_per_cm";
     let g = scene.acquisition.depth_gain_db_per_cm;
     if g != 0.0 && free(path) {
-        let span = crate::diagnose::DEPTH_GAIN_MAX_DB_PER_CM.max(2.0 * g.abs());
+        let span = DEPTH_GAIN_MAX_DB_PER_CM.max(2.0 * g.abs());
         out.push(two_sided("depth_gain", path.into(), g, (-span, span), &[]));
     }
     out

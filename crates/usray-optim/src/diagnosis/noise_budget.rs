@@ -17,12 +17,12 @@
 
 /// Default largest share of the calibrated held-out loss that the simulation's
 /// noise may hold for a diagnosis to decide ([`crate::DiagnoseOptions::noise_share`]).
-pub const DEFAULT_NOISE_SHARE: f64 = 0.25;
+pub(crate) const DEFAULT_NOISE_SHARE: f64 = 0.25;
 
 /// Exponent `p` of `N ∝ r^(−p)` assumed before two ray counts have been
 /// measured: between the ℓ1 term's ½ and the ℓ2 term's 1, on the side that asks
 /// for more rays rather than fewer.
-pub const DEFAULT_NOISE_EXPONENT: f64 = 0.75;
+pub(crate) const DEFAULT_NOISE_EXPONENT: f64 = 0.75;
 
 /// `(N/2) / H`: the share of the held-out loss `held_loss` that one simulated
 /// image's Monte Carlo noise holds, from the noise level `noise_loss` (the loss
@@ -108,7 +108,8 @@ pub struct NoiseCheck {
     pub rays_needed: Option<usize>,
     /// The diagnosis's estimated wall time at [`NoiseCheck::rays_needed`],
     /// seconds: its calibration's time per ray × the rays ×
-    /// [`crate::DIAGNOSIS_OVER_CALIBRATION`].
+    /// the ratio of a whole diagnosis's time to its calibration stage's
+    /// (6, the middle of those measured; docs/performance.md).
     pub seconds_needed: Option<f64>,
     /// Each calibration's rays and share, in order (more than one where the
     /// rays were raised within the budget).

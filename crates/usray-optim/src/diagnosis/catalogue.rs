@@ -1,0 +1,289 @@
+//! The structural candidate effects of a diagnosis (CONTRACT §3): what may be
+//! missing from the scene, how to switch it on and which parameter carries its
+//! strength. The candidates "this modelled value is wrong" are in
+//! `parameter_candidates`.
+
+use crate::OptimError;
+use usray_transport::scene::{Material, ShapeKind};
+use usray_transport::Scene;
+
+/// Fixed density of the `volume_scattering` candidate, scatterers per mm³ (well
+/// above the ≈ 10 per resolution cell of fully developed speckle at 5 MHz); its
+/// strength is what is scored and fitted.
+pub(crate) const SCATTERER_DENSITY_PER_MM3: f64 = 5.0;
+
+/// Largest depth gain the `depth_gain` candidate may take, dB/cm: the two-way
+/// attenuation `2αf_c` of 1 dB/(cm·MHz) at 5 MHz.
+pub(crate) const DEPTH_GAIN_MAX_DB_PER_CM: f64 = 10.0;
+
+/// Learning rate of an effect's strength in a confirming refit, in fractions of
+/// its range per step (the calibrated parameters keep their groups' rates).
+pub(crate) const EFFECT_LEARNING_RATE: f64 = 0.05;
+
+/// One candidate unmodelled effect: how to switch it on and which parameter
+/// carries its strength.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Candidate {
+    /// Effect name (CONTRACT §5): `wall_thickness`, `attenuation`, …
+    pub effect: String,
+    /// The strength parameter's dotted path once switched on.
+    pub path: String,
+    /// Values at which it may be scored: the null where the model is smooth
+    /// there; else a few values across the range (the best by loss is scored).
+    pub onsets: Vec<f64>,
+    /// Admissible range of the parameter in a refit.
+    pub range: (f64, f64),
+    /// Whether the parameter may move either way from its null (sound speed,
+    /// pulse length) or only up (thickness, attenuation, scattering, depth
+    /// gain).
+    pub two_sided: bool,
+    /// The parameter's *null*: the value at which the effect is off and the
+    /// scene renders as the base model, bit for bit (checked in
+    /// `tests/diagnosis.rs`). `None` for a wall, whose null — a solid
+    /// cylinder — is a change of structure, not a thickness.
+    pub null: Option<f64>,
+    /// Other scene values set with the switch (e.g. the scatterer density).
+    pub fixed: Vec<(String, f64)>,
+    /// Learning rate of the strength in a confirming refit, in fractions of
+    /// [`Candidate::range`] per step (0.05 unless the loss's
+    /// basin is narrower than the range, as for a wall).
+    pub learning_rate: f64,
+}
+
+impl Candidate {
+    /// `scene` with this effect switched on at `value` (and its fixed settings).
+    ///
+    /// # Errors
+    /// A path the scene does not have.
+    pub fn switched_on(&self, scene: &Scene, value: f64) -> Result<Scene, OptimError> {
+        let mut s = scene.clone();
+        switch_on(&mut s, &self.path, value)?;
+        for (p, v) in &self.fixed {
+            switch_on(&mut s, p, *v)?;
+        }
+        Ok(s)
+    }
+}
+
+/// Sets `path` to `value`, creating the optional keys an effect switches on
+/// (`objects.NAME.thickness_m`, `imaging.sound_speed_m_s`).
+fn switch_on(s: &mut Scene, path: &str, value: f64) -> Result<(), OptimError> {
+    if let Some(name) = path
+        .strip_prefix("objects.")
+        .and_then(|p| p.strip_suffix(".thickness_m"))
+    {
+        let o = s
+            .objects
+            .iter_mut()
+            .find(|o| o.name == name)
+            .ok_or_else(|| OptimError::Diagnosis(format!("no object `{name}` for {path}")))?;
+        o.thickness_m = Some(value);
+    } else if path == "imaging.sound_speed_m_s" {
+        s.imaging.sound_speed_m_s = Some(value);
+    } else {
+        s.set(path, value)?;
+    }
+    s.validate()?;
+    Ok(())
+}
+
+/// The candidate effects for `scene` (CONTRACT §3): a wall for each solid
+/// cylinder, attenuation of the medium, scatterers in each object's material, a
+/// medium sound speed different from the beamformer's, a pulse length different
+/// from the scene's (beyond CONTRACT §3's five), and a depth gain up with depth
+/// (a gain down with depth images as attenuation).
+/// Effects the scene already has switched on are not candidates.
+///
+/// ```
+/// use usray_optim::catalogue;
+/// let mut scene = usray_transport::Scene::load("../../scenes/cylinder.toml").unwrap();
+/// let wall = |s: &usray_transport::Scene| {
+///     catalogue(s).into_iter().find(|c| c.effect == "wall_thickness").unwrap()
+/// };
+/// // Onsets one echo width c_wall·cycles/(2 f_c) = 0.471 mm apart across the radius.
+/// let w = wall(&scene);
+/// assert_eq!(w.onsets.len(), 10);
+/// assert!((w.onsets[1] - w.onsets[0] - 1570.0 * 3.0 / (2.0 * 5.0e6)).abs() < 1e-12);
+/// // Every onset lies inside the refit's range, even for a wire-thin cylinder.
+/// scene.set("objects.cylinder.radius_m", 0.1e-3).unwrap();
+/// let w = wall(&scene);
+/// assert!(!w.onsets.is_empty());
+/// assert!(w.onsets.iter().all(|t| *t > w.range.0 && *t < w.range.1));
+/// ```
+pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    let f_c = scene.probe.center_frequency_hz;
+    let lambda = scene.medium.sound_speed_m_s / f_c;
+    for o in &scene.objects {
+        if o.shape == ShapeKind::Cylinder && o.thickness_m.is_none() {
+            if let (Some(r), Some(m)) = (o.radius_m, scene.materials.get(&o.material)) {
+                // The null (a solid cylinder) is a change of structure, and a wall
+                // of zero thickness is invisible: scored at the best of several
+                // walls across the radius. A wall `t` thick puts its inner echo
+                // `2t/c_wall` after the outer one; the loss has a basin about one
+                // echo width wide around the true `t` (pulse envelope FWHM
+                // `cycles/f_c`, `usray_signal::pulse`), so the onsets lie one echo
+                // width `Δt = c_wall·cycles/(2 f_c)` apart, at `(k + ½)Δt`, and a
+                // refit steps a quarter of it. Thinnest wall in a refit: a quarter
+                // wavelength (or an eighth of the radius).
+                let dt = wall_echo_width_m(scene, m);
+                let range = (0.25 * lambda.min(0.5 * r), 0.95 * r);
+                let mut onsets = wall_onsets(dt, range.1);
+                if onsets.is_empty() {
+                    // A cylinder thinner than half an echo width: one onset.
+                    onsets.push(0.5 * (range.0 + range.1));
+                }
+                out.push(Candidate {
+                    effect: "wall_thickness".into(),
+                    path: format!("objects.{}.thickness_m", o.name),
+                    onsets,
+                    range,
+                    two_sided: false,
+                    null: None,
+                    fixed: vec![],
+                    learning_rate: wall_learning_rate(dt, range),
+                });
+            }
+        }
+    }
+    if scene.medium.attenuation_db_cm_mhz == 0.0 {
+        out.push(Candidate {
+            effect: "attenuation".into(),
+            path: "medium.attenuation_db_cm_mhz".into(),
+            onsets: vec![0.0],
+            range: (0.0, 2.0),
+            two_sided: false,
+            null: Some(0.0),
+            fixed: vec![],
+            learning_rate: EFFECT_LEARNING_RATE,
+        });
+    }
+    let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
+    materials.sort_unstable();
+    materials.dedup();
+    // Attenuation inside each object's material: after the B-mode's normalisation
+    // to its maximum, attenuation of the background alone changes little when
+    // every echo crosses the same background path (a cylinder's near and far
+    // walls); attenuation inside an object darkens what lies behind it.
+    for m in &materials {
+        if scene
+            .materials
+            .get(*m)
+            .is_some_and(|mat| mat.attenuation_db_cm_mhz == 0.0)
+        {
+            out.push(Candidate {
+                effect: "attenuation".into(),
+                path: format!("materials.{m}.attenuation_db_cm_mhz"),
+                onsets: vec![0.0],
+                range: (0.0, 2.0),
+                two_sided: false,
+                null: Some(0.0),
+                fixed: vec![],
+                learning_rate: EFFECT_LEARNING_RATE,
+            });
+        }
+    }
+    for m in materials {
+        if scene.materials.get(m).is_some_and(|mat| {
+            mat.scatterer_density_per_mm3 == 0.0 || mat.scatterer_strength == 0.0
+        }) {
+            out.push(Candidate {
+                effect: "volume_scattering".into(),
+                path: format!("materials.{m}.scatterer_strength"),
+                // Power per volume ρ·strength² (ScattererField): 0.7 at 5 per
+                // mm³ is a speckle as bright as a strong specular echo.
+                onsets: vec![0.035],
+                range: (0.0, 0.7),
+                two_sided: false,
+                null: Some(0.0),
+                fixed: vec![(
+                    format!("materials.{m}.scatterer_density_per_mm3"),
+                    SCATTERER_DENSITY_PER_MM3,
+                )],
+                learning_rate: EFFECT_LEARNING_RATE,
+            });
+        }
+    }
+    let c_img = scene
+        .imaging
+        .sound_speed_m_s
+        .unwrap_or(scene.medium.sound_speed_m_s);
+    if (c_img - scene.medium.sound_speed_m_s).abs() < 1e-9 {
+        // Switched on by giving the beamformer its own speed, so that the medium's
+        // speed is free to differ from it. A speed error of a few percent moves
+        // an echo at depth `d` by `d·Δc/c`, more than the pulse length (3 cycles
+        // at 5 MHz ≈ 0.9 mm, i.e. 3% of 15 mm of two-way path at the depth) for
+        // errors past ≈ 3%: the loss is not quadratic that far from the null, so
+        // the speed is scored from the best of five onsets 2.5% apart (four more
+        // renders), each within the basin of its neighbours.
+        out.push(Candidate {
+            effect: "sound_speed".into(),
+            path: "medium.sound_speed_m_s".into(),
+            onsets: [1.0, 0.975, 1.025, 0.95, 1.05]
+                .iter()
+                .map(|f| f * c_img)
+                .collect(),
+            range: (0.93 * c_img, 1.07 * c_img),
+            two_sided: true,
+            null: Some(c_img),
+            fixed: vec![("imaging.sound_speed_m_s".into(), c_img)],
+            learning_rate: EFFECT_LEARNING_RATE,
+        });
+    }
+    // Pulse length (bandwidth): the transmitted pulse's envelope FWHM in cycles
+    // differs from the scene's; null = the scene's value, either way.
+    let cycles = scene.probe.cycles;
+    out.push(Candidate {
+        effect: "pulse_length".into(),
+        path: "probe.cycles".into(),
+        onsets: vec![cycles],
+        range: (0.5 * cycles, 3.0 * cycles),
+        two_sided: true,
+        null: Some(cycles),
+        fixed: vec![],
+        learning_rate: EFFECT_LEARNING_RATE,
+    });
+    if scene.acquisition.depth_gain_db_per_cm == 0.0 {
+        out.push(Candidate {
+            effect: "depth_gain".into(),
+            path: "acquisition.depth_gain_db_per_cm".into(),
+            onsets: vec![0.0],
+            // Only up, as a scanner's time-gain boosts deep echoes.
+            // A gain *down* with depth is not a separate effect in a B-mode: it
+            // is what attenuation does (`2αf_c` dB/cm along every path, the
+            // spectral down-shift aside; `tests/diagnosis.rs`), so with both
+            // signs the two refits would tie on attenuated data.
+            range: (0.0, DEPTH_GAIN_MAX_DB_PER_CM),
+            two_sided: false,
+            null: Some(0.0),
+            fixed: vec![],
+            // Steps of 0.3 dB/cm, the other effects' 5% of a ±3 dB/cm range:
+            // the step the gain was tuned with, kept when its range grew.
+            learning_rate: 0.3 / DEPTH_GAIN_MAX_DB_PER_CM,
+        });
+    }
+    out
+}
+
+/// A wall's echo width `Δt = c_wall·cycles/(2 f_c)`, m: the wall thickness
+/// that puts its inner echo one pulse envelope FWHM (`cycles/f_c`,
+/// `usray_signal::pulse`) after its outer one. The loss has a basin about this
+/// wide around the true wall.
+pub(crate) fn wall_echo_width_m(scene: &Scene, wall: &Material) -> f64 {
+    wall.sound_speed_m_s * scene.probe.cycles / (2.0 * scene.probe.center_frequency_hz)
+}
+
+/// Walls one echo width `dt` apart, at `(k + ½)·dt`, below `max_m`: the onsets
+/// at which a wall is scored.
+pub(crate) fn wall_onsets(dt: f64, max_m: f64) -> Vec<f64> {
+    (0..)
+        .map(|k| (k as f64 + 0.5) * dt)
+        .take_while(|t| *t < max_m)
+        .collect()
+}
+
+/// A wall refit's step: a quarter of the echo width `dt`, as a fraction of
+/// `range` (at most [`EFFECT_LEARNING_RATE`]).
+pub(crate) fn wall_learning_rate(dt: f64, range: (f64, f64)) -> f64 {
+    (0.25 * dt / (range.1 - range.0)).min(EFFECT_LEARNING_RATE)
+}

@@ -1,0 +1,285 @@
+//! Step 4 of a diagnosis: the null refit (the control) and the leading
+//! candidates' refits, each measured on the held-out renders: its shrink of
+//! the held-out loss, its excess over the null refit, the share of the gap it
+//! explains and its effect parameter's limit of detection.
+
+use super::calibration::Stage;
+use super::catalogue::Candidate;
+use super::held_out::{held_out, mean, mean_and_se, relative_differences};
+use super::options::DiagnoseOptions;
+use super::results::{EffectResult, NullRefit};
+use crate::fit::{fit_journaled, FitOptions};
+use crate::objective::Objective;
+use crate::params::ParamSpec;
+use crate::spread::parameter_spread;
+use crate::OptimError;
+use std::time::Instant;
+use usray_transport::Scene;
+
+/// How many Monte Carlo spreads of an effect parameter make its limit of
+/// detection ([`EffectResult::detection_limit`]): 3, the analytical chemists'
+/// convention — the limit of detection is the blank's mean plus three of its
+/// standard deviations (IUPAC; Long & Winefordner, *Anal. Chem.* 55, 712A,
+/// 1983), which a Gaussian estimate exceeds by chance with probability 0.13%.
+pub(crate) const DETECTION_LIMIT_SPREADS: f64 = 3.0;
+
+/// A candidate's refit and its held-out evaluation (step 4).
+struct Refit {
+    after_losses: Vec<f64>,
+    params: Vec<(String, f64)>,
+    params_std: Vec<(String, Option<f64>)>,
+    image_s: Vec<f64>,
+    scene: Scene,
+    spread_s: f64,
+}
+
+/// The Adam step of a candidate's parameter in its refit, as a fraction of its
+/// range: [`Candidate::learning_rate`] (the effect's strength may lie anywhere
+/// in its range and refits are short: 5% of the range per step, less for a
+/// narrow basin), but for an effect whose null is the bottom of its range a
+/// quarter of the start's distance from it, between a quarter of that and
+/// that. Otherwise a start near the null (a faint speckle scored best at 0.035
+/// of a 0–0.7 strength) is one step from the bound, where the clip map's
+/// derivative is zero (paper eq. clip_grad) and the effect, switched off,
+/// could never come back.
+fn refit_learning_rate(c: &Candidate, start: f64) -> f64 {
+    let width = c.range.1 - c.range.0;
+    match c.null {
+        Some(null) if !c.two_sided && null <= c.range.0 && width > 0.0 => {
+            (0.25 * (start - c.range.0) / width).clamp(0.25 * c.learning_rate, c.learning_rate)
+        }
+        _ => c.learning_rate,
+    }
+}
+
+/// Refits candidate `c` with the base `specs` from `start` (step 4).
+fn refit_candidate(
+    c: &Candidate,
+    start: f64,
+    stage: &Stage,
+    specs: &[ParamSpec],
+    measured: &[f64],
+    held_data: &[f64],
+    opts: &DiagnoseOptions,
+) -> Result<Refit, OptimError> {
+    // Start strictly inside the range: at a bound the clip map's derivative is
+    // zero (paper eq. clip_grad), so a strength starting at its null (the
+    // bottom of its range) would never move.
+    let margin = 0.01 * (c.range.1 - c.range.0);
+    let start = start.clamp(c.range.0 + margin, c.range.1 - margin);
+    let on = c.switched_on(&stage.scene, start)?;
+    let mut refit_specs = vec![ParamSpec {
+        path: c.path.clone(),
+        min: c.range.0,
+        max: c.range.1,
+    }];
+    refit_specs.extend(specs.iter().cloned());
+    let mut obj = stage
+        .setup
+        .objective(on, measured, refit_specs, &stage.render_s)?;
+    let x0 = obj.initial_physical();
+    let r = fit_journaled(
+        &mut obj,
+        &x0,
+        &FitOptions {
+            iters: opts.refit_iters,
+            lr_overrides: vec![(c.path.clone(), refit_learning_rate(c, start))],
+            ..opts.fit.clone()
+        },
+        &opts.journal,
+        &format!("refit {} ({})", c.effect, c.path),
+        |_| {},
+    )?;
+    let fitted = obj.scene_at(&r.final_params)?;
+    let after = held_out(&fitted, held_data, &stage.renders_held, &stage.setup)?;
+    let t_spread = Instant::now();
+    // The refit's image on the fit's seed (one render, also with a paired loss).
+    let image_s = Objective::new(
+        fitted.clone(),
+        measured.to_vec(),
+        vec![],
+        stage.render_s.clone(),
+    )?
+    .value(&[])?
+    .image
+    .data;
+    let std = parameter_spread(
+        &obj,
+        &r.final_params,
+        &image_s,
+        &after[0].image.data,
+        opts.spread_pairs,
+    )?;
+    Ok(Refit {
+        after_losses: after.iter().map(|e| e.loss).collect(),
+        params: obj
+            .specs
+            .iter()
+            .zip(&r.final_params)
+            .map(|(s, v)| (s.path.clone(), *v))
+            .chain(c.fixed.iter().cloned())
+            .collect(),
+        params_std: obj
+            .specs
+            .iter()
+            .zip(std)
+            .map(|(s, v)| (s.path.clone(), v))
+            .collect(),
+        image_s,
+        scene: fitted,
+        spread_s: t_spread.elapsed().as_secs_f64(),
+    })
+}
+
+/// The null refit and the losses an effect's refit must beat.
+pub(crate) struct Control {
+    /// What the null refit found ([`super::Diagnosis::null_refit`]).
+    pub null_refit: NullRefit,
+    /// The baseline of every excess, one loss per held-out seed: the null
+    /// refit's, or the calibrated model's where the null refit ended worse
+    /// (every refit restarts Adam's moments and may).
+    pub baseline: Vec<f64>,
+}
+
+/// The control: the base parameters alone, refitted from the calibrated point
+/// for as many iterations as each candidate, on the calibration's seed, from a
+/// fresh Adam, and its held-out losses.
+pub(crate) fn null_refit(
+    stage: &Stage,
+    specs: &[ParamSpec],
+    measured: &[f64],
+    held_data: &[f64],
+    opts: &DiagnoseOptions,
+) -> Result<Control, OptimError> {
+    let mut null_obj = stage.setup.objective(
+        stage.scene.clone(),
+        measured,
+        specs.to_vec(),
+        &stage.render_s,
+    )?;
+    let null_fit = fit_journaled(
+        &mut null_obj,
+        &stage.params,
+        &FitOptions {
+            iters: opts.refit_iters,
+            ..opts.fit.clone()
+        },
+        &opts.journal,
+        "null refit",
+        |_| {},
+    )?;
+    let null_after = held_out(
+        &null_obj.scene_at(&null_fit.final_params)?,
+        held_data,
+        &stage.renders_held,
+        &stage.setup,
+    )?;
+    let null_losses: Vec<f64> = null_after.iter().map(|e| e.loss).collect();
+    let (shrink, shrink_std) = mean_and_se(&relative_differences(
+        &stage.held_losses,
+        &null_losses,
+        stage.held_loss,
+    ));
+    let baseline = if shrink > 0.0 {
+        null_losses.clone()
+    } else {
+        stage.held_losses.clone()
+    };
+    Ok(Control {
+        null_refit: NullRefit {
+            loss_after: mean(&null_losses),
+            shrink,
+            shrink_std,
+            held_out_losses: null_losses,
+            params: specs
+                .iter()
+                .zip(&null_fit.final_params)
+                .map(|(s, v)| (s.path.clone(), *v))
+                .collect(),
+        },
+        baseline,
+    })
+}
+
+/// A refitted candidate: its index among the candidates, its image on the
+/// fit's seed and its fitted scene.
+pub(crate) struct Refitted {
+    /// Index of the candidate (and of its [`EffectResult`]).
+    pub candidate: usize,
+    /// The refitted model's image on the calibration's seed `s`.
+    pub image_s: Vec<f64>,
+    /// The scene with the effect switched on at its fitted value.
+    pub scene: Scene,
+}
+
+/// Refits the first [`DiagnoseOptions::confirm_top`] candidates of `order`
+/// whose scoring completed, each from its start in `starts`, and fills their
+/// [`EffectResult`]s in `effects` with the held-out statistics (against the
+/// calibrated losses and the control's `baseline`). A failing refit is
+/// recorded in [`EffectResult::failed`] and skipped. Returns the refits in
+/// order and the seconds spent on their parameter spreads.
+pub(crate) fn refit_leading(
+    candidates: &[Candidate],
+    starts: &[f64],
+    order: &[usize],
+    effects: &mut [EffectResult],
+    stage: &Stage,
+    specs: &[ParamSpec],
+    baseline: &[f64],
+    measured: &[f64],
+    held_data: &[f64],
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(&str),
+) -> (Vec<Refitted>, f64) {
+    let (held_losses, held_loss, noise_loss) =
+        (&stage.held_losses, stage.held_loss, stage.noise_loss);
+    let mut refits = Vec::new();
+    let mut spread_s = 0.0;
+    let leading: Vec<usize> = order
+        .iter()
+        .copied()
+        .filter(|&k| effects[k].failed.is_none())
+        .take(opts.confirm_top)
+        .collect();
+    for k in leading {
+        let c = &candidates[k];
+        progress(&format!("refitting with {} ({})", c.effect, c.path));
+        let r = match refit_candidate(c, starts[k], stage, specs, measured, held_data, opts) {
+            Ok(r) => r,
+            Err(e) => {
+                effects[k].failed = Some(format!("refit: {e}"));
+                continue;
+            }
+        };
+        spread_s += r.spread_s;
+        let after_loss = mean(&r.after_losses);
+        let (shrink, shrink_std) = mean_and_se(&relative_differences(
+            held_losses,
+            &r.after_losses,
+            held_loss,
+        ));
+        let (excess, excess_std) =
+            mean_and_se(&relative_differences(baseline, &r.after_losses, held_loss));
+        let e = &mut effects[k];
+        e.loss_after = Some(after_loss);
+        e.shrink = Some(shrink);
+        e.shrink_std = shrink_std;
+        e.excess = Some(excess);
+        e.excess_std = excess_std;
+        e.gap_explained =
+            (held_loss > noise_loss).then(|| (held_loss - after_loss) / (held_loss - noise_loss));
+        e.held_out_losses = r.after_losses;
+        e.params = r.params.into_iter().collect();
+        e.params_std = r.params_std.into_iter().collect();
+        e.detection_limit = c
+            .null
+            .and(e.params_std.get(&e.path).copied().flatten())
+            .map(|spread| DETECTION_LIMIT_SPREADS * spread);
+        refits.push(Refitted {
+            candidate: k,
+            image_s: r.image_s,
+            scene: r.scene,
+        });
+    }
+    (refits, spread_s)
+}

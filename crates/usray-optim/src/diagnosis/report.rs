@@ -1,0 +1,550 @@
+//! The report of a diagnosis (CONTRACT §5): `report.md`, the story of every
+//! round with its tables, and `diagnosis.json`, the first round's
+//! [`Diagnosis`] with the kinds of residual and one summary per round.
+//!
+//! The report names the figures `usray diagnose` draws beside it
+//! (`measured.png`, `calibrated.png`, `after.png`, `residual_calibrated.png`,
+//! `residual_after.png`) and the command's flags for each setting
+//! (`--smoothing` for [`super::DiagnoseOptions::smoothing_wavelengths`], …).
+
+use super::refits::DETECTION_LIMIT_SPREADS;
+use super::residual::{residual_scale, GreyStats, ResidualReport};
+use super::results::{Diagnosis, EffectResult};
+use super::verdict::{names_an_effect, TIE_MARGIN};
+use crate::mirror::impedance_mirror;
+use crate::objective::grid_shape;
+use crate::OptimError;
+use std::fmt::{self, Write as _};
+use std::path::Path;
+use usray_transport::Scene;
+
+/// A diagnosis's rounds ([`super::diagnose_compound`]) and what the report
+/// says about where they came from.
+///
+/// ```no_run
+/// use std::path::Path;
+/// use usray_optim::{diagnose_compound, load_reference, DiagnoseOptions, Report};
+/// let scene = usray_transport::Scene::load("scene.toml").unwrap();
+/// let measured = load_reference(Path::new("measured/bmode.npy"), &scene).unwrap();
+/// let t = std::time::Instant::now();
+/// let rounds = diagnose_compound(&scene, &measured, &DiagnoseOptions::default(), 2, |_| {}).unwrap();
+/// let report = Report {
+///     rounds: &rounds,
+///     scene: &scene,
+///     scene_path: Path::new("scene.toml"),
+///     measured_path: Path::new("measured/bmode.npy"),
+///     measured: &measured,
+///     wall_s: t.elapsed().as_secs_f64(),
+/// };
+/// report.write(Path::new("diagnosis")).unwrap(); // report.md, diagnosis.json
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Report<'a> {
+    /// Every round, the first one the diagnosis proper (at least one).
+    pub rounds: &'a [Diagnosis],
+    /// The scene diagnosed (the base model, as loaded).
+    pub scene: &'a Scene,
+    /// Its file, as the report names it.
+    pub scene_path: &'a Path,
+    /// The measured data's file, as the report names it.
+    pub measured_path: &'a Path,
+    /// The measured B-mode the diagnosis compared with (`[nz, nx]` on the
+    /// scene's grid): the residual figures' scales are quoted from it.
+    pub measured: &'a [f64],
+    /// Wall time of the whole diagnosis, seconds.
+    pub wall_s: f64,
+}
+
+impl Report<'_> {
+    /// `report.md`: the verdict and what it rests on, the calibrated model,
+    /// where the residual lies, every candidate, the compound rounds and the
+    /// time.
+    ///
+    /// # Errors
+    /// No rounds, or images that do not match the scene's grid.
+    pub fn markdown(&self) -> Result<String, OptimError> {
+        let d = self.first()?;
+        let (nz, nx) = grid_shape(self.scene)?;
+        let scale_before = residual_scale(&d.calibrated_image, self.measured, nz, nx)?;
+        let scale_after = residual_scale(&d.after_image, self.measured, nz, nx)?;
+        story(self, scale_before, scale_after)
+            .map_err(|_| OptimError::Diagnosis("report.md: formatting failed".into()))
+    }
+
+    /// `diagnosis.json` (CONTRACT §5): the first round at the top level, with
+    /// `residual_kinds` and `wall_seconds`; every round's verdict and named
+    /// effect in `rounds`.
+    ///
+    /// # Errors
+    /// No rounds.
+    pub fn json(&self) -> Result<serde_json::Value, OptimError> {
+        let d = self.first()?;
+        let unserialisable =
+            |e: serde_json::Error| OptimError::Diagnosis(format!("diagnosis.json: {e}"));
+        let mut json = serde_json::to_value(d).map_err(unserialisable)?;
+        json["residual_kinds"] = serde_json::to_value(&d.residual).map_err(unserialisable)?;
+        json["wall_seconds"] = self.wall_s.into();
+        json["rounds"] = serde_json::Value::Array(
+            self.rounds
+                .iter()
+                .map(|r| {
+                    let named = named_effect(r);
+                    serde_json::json!({
+                        "verdict": r.verdict,
+                        "gap_explained": named.and_then(|e| e.gap_explained),
+                        "excess": named.and_then(|e| e.excess),
+                        "excess_std": named.and_then(|e| e.excess_std),
+                        "found": named.and_then(|e| e.params.get(&e.path)),
+                        "noise_check": r.noise_check,
+                        "loss_held_out": r.calibrated.loss_held_out,
+                        "seconds": r.timings.total_s,
+                    })
+                })
+                .collect(),
+        );
+        Ok(json)
+    }
+
+    /// Writes `report.md` and `diagnosis.json` (pretty-printed) into `dir`,
+    /// each atomically. The figures the report shows are not drawn here
+    /// (`usray diagnose` draws them).
+    ///
+    /// # Errors
+    /// As [`Report::markdown`] and [`Report::json`], or a file that cannot be
+    /// written (named).
+    pub fn write(&self, dir: &Path) -> Result<(), OptimError> {
+        let json = serde_json::to_string_pretty(&self.json()?)
+            .map_err(|e| OptimError::Diagnosis(format!("diagnosis.json: {e}")))?;
+        for (name, text) in [("report.md", self.markdown()?), ("diagnosis.json", json)] {
+            let path = dir.join(name);
+            usray_signal::write_atomic(&path, |w| w.write_all(text.as_bytes())).map_err(|e| {
+                OptimError::Diagnosis(format!("cannot write {}: {e}", path.display()))
+            })?;
+        }
+        Ok(())
+    }
+
+    /// The first round, the diagnosis proper.
+    fn first(&self) -> Result<&Diagnosis, OptimError> {
+        self.rounds
+            .first()
+            .ok_or_else(|| OptimError::Diagnosis("a report needs at least one round".into()))
+    }
+}
+
+/// How the report's losses compared the images: the smoothing in mm and the
+/// noise floor in grey levels and dB below the top of the dynamic range.
+fn comparison_sentence(d: &Diagnosis, scene: &Scene) -> String {
+    let c = &d.comparison;
+    let pixel_mm = 1e3 * scene.imaging.pixel_m;
+    let smoothing = if c.sigma_z_px > 0.0 {
+        format!(
+            "after smoothing both by a Gaussian of σ = {:.3} mm (`--smoothing`), so that speckle and noise average out",
+            c.sigma_z_px * pixel_mm
+        )
+    } else {
+        "pixel by pixel".to_string()
+    };
+    let floor = if c.floor > 0.0 {
+        format!(
+            ", and floored at grey {:.3} ({:.1} dB): the measurement's noise level where the calibrated model's image is empty (`usray_optim::noise_floor`, `--floor`), below which a difference is no evidence",
+            c.floor,
+            -(1.0 - c.floor) * scene.imaging.dynamic_range_db
+        )
+    } else {
+        ", with no noise floor (`--floor` adds one)".to_string()
+    };
+    format!("Every loss after the calibration compares the images {smoothing}{floor}.")
+}
+
+/// The refitted effect a diagnosis's verdict names, if any.
+fn named_effect(d: &Diagnosis) -> Option<&EffectResult> {
+    let path = d.verdict.path.as_ref()?;
+    d.effects.iter().find(|e| &e.path == path)
+}
+
+/// The story of a diagnosis: `report.md`'s text ([`Report::markdown`]).
+fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String, fmt::Error> {
+    let (rounds, base, wall) = (report.rounds, report.scene, report.wall_s);
+    let (scene, measured) = (report.scene_path, report.measured_path);
+    let d = &rounds[0];
+    let mut r = String::new();
+    writeln!(
+        r,
+        "# usray diagnose: `{}` against `{}`\n",
+        scene.display(),
+        measured.display()
+    )?;
+    writeln!(r, "## Verdict: **{}**\n", d.verdict.effect)?;
+    let nc = &d.noise_check;
+    match d.verdict.effect.as_str() {
+        "none" => writeln!(r, "No candidate effect shrinks the held-out loss by {:.0}% of it more than refitting the base parameters alone does (by {:.0} standard errors), and the simulation's Monte Carlo noise was small enough to see one: {:.0}% of the calibrated gap at {} rays (at most {:.0}%). The limits of detection below say how weak an effect could still go unseen.\n", 100.0 * d.rule.min_excess, d.rule.min_excess_z, 100.0 * nc.share, nc.rays, 100.0 * nc.target)?,
+        "unexplained" => writeln!(r, "A real gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds): a candidate beats refitting the base parameters alone significantly, but none removes {:.0}% of the gap above the noise level. Something the catalogue does not hold is there; see where the residual lies (section 2).\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds, 100.0 * d.rule.min_gap_explained)?,
+        "inconclusive" => {
+            writeln!(r, "The simulation's own Monte Carlo noise is {:.0}% of the calibrated gap at {} rays per element (a decision needs at most {:.0}%), so a candidate could win or lose by fitting noise, and no effect was found that clears it.", 100.0 * nc.share, nc.rays, 100.0 * nc.target)?;
+            match (nc.rays_needed, nc.seconds_needed) {
+                (Some(rays), Some(s)) => writeln!(r, "A decision needs about **{rays} rays**, about {s:.0} s for the whole diagnosis on this machine: rerun with `--budget {:.0}` (or `--rays {rays}`).\n", s.ceil())?,
+                _ => writeln!(r, "The calibrated model's held-out loss is no larger than its own noise: no gap is visible at this noise level, and how many rays would show one cannot be told from it. Rerun with several times the rays.\n")?,
+            }
+        }
+        e => {
+            writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {:+.0}%.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, -100.0 * d.null_refit.shrink)?;
+            if let Some(g) = named_effect(d).and_then(|x| x.gap_explained) {
+                writeln!(r, "It removes {:.0}% of the gap above the Monte Carlo noise level ({:.4e}).", 100.0 * g, d.noise_loss)?;
+            }
+            writeln!(r)?
+        }
+    }
+    if !names_an_effect(&d.verdict.effect) {
+        let limits: Vec<String> = d
+            .effects
+            .iter()
+            .filter_map(|e| {
+                let (limit, null) = (e.detection_limit?, e.null?);
+                let found = e.params.get(&e.path)? - null;
+                let z = e.null_z()?;
+                Some(format!(
+                    "{} (`{}`) within {}{} of {} (found {}: {z:+.1} spreads)",
+                    e.effect,
+                    e.path,
+                    if e.range[0] < null { "±" } else { "+" },
+                    short(limit),
+                    short(null),
+                    signed(found)
+                ))
+            })
+            .collect();
+        if !limits.is_empty() {
+            writeln!(r, "**What these data cannot rule out.** Within its limit of detection — {:.0} Monte Carlo spreads of its refitted value from its null — an effect cannot be told from its absence by its parameter, so one weaker than this could be present: {}. These limits are lower bounds: the spreads count Monte Carlo noise only, and a value found beyond its limit is not thereby an effect (the held-out loss decides that).\n", DETECTION_LIMIT_SPREADS, limits.join("; "))?;
+        }
+    }
+    if let Some(named) = named_effect(d).filter(|e| e.at_range_bound()) {
+        writeln!(r, "**At the bound of its range:** the refit left `{}` at {:.4e}, the edge of the range [{:.4e}, {:.4e}] it may take; the data may want a stronger effect than the range allows, so this value is a limit, not an estimate.\n", named.path, named.params[&named.path], named.range[0], named.range[1])?;
+    }
+    if !d.verdict.alternatives.is_empty() {
+        let alt: Vec<String> = d
+            .verdict
+            .alternatives
+            .iter()
+            .map(|a| format!("`{a}`"))
+            .collect();
+        writeln!(r, "**Not told apart:** {} explain(s) these data about as well (held-out shrink within {:.2}); more data (other angles, depths, channel data) would be needed to choose.\n", alt.join(", "), TIE_MARGIN)?;
+    }
+    writeln!(r, "## 1. Calibrated base model\n")?;
+    writeln!(
+        r,
+        "| parameter | value | ± (Monte Carlo spread) |\n|---|---|---|"
+    )?;
+    for (p, v) in &d.calibrated.params {
+        let std = d.calibrated.params_std.get(p).copied().flatten();
+        writeln!(r, "| `{p}` | {v:.6e} | {} |", std_text(std))?;
+    }
+    for (p, v) in &d.calibrated.params {
+        if let Some(m) = impedance_mirror(base, p, *v) {
+            writeln!(r, "\n**`{p}` = {v:.3} MRayl or {m:.3}?** A B-mode barely tells an impedance `Z` from its mirror `Z₁²/Z` = {m:.3} MRayl (`Z₁` = {:.3} MRayl, the background's): the wall reflects with the opposite sign and passes with the same `1 − R²`, which the envelope does not show. Which side of `Z₁` the fit lands on depends on its start; knowing whether the target is denser than its surroundings decides it.", base.medium.impedance_mrayl)?;
+        }
+    }
+    writeln!(r, "\n±: the standard deviation the fitted value would have under the simulation's Monte Carlo noise (a linearised fit repeated on {} independent noise realisations, `usray_optim::parameter_spread`). It counts noise only: where parameters trade against each other, or the loss is biased, the error can be many times larger (docs/diagnosis.md, \"How well each parameter is determined\").", d.spread_pairs)?;
+    writeln!(
+        r,
+        "\nLoss {:.4e} on the fit's seed, {:.4e} held out (mean over {} other seeds); Monte Carlo noise level {:.4e}, so the simulation's own noise is {:.0}% of the held-out loss at {} rays.{}\n",
+        d.calibrated.loss,
+        d.calibrated.loss_held_out,
+        d.held_out_seeds,
+        d.noise_loss,
+        100.0 * nc.share,
+        nc.rays,
+        if d.paired {
+            " Every loss is the paired loss (`--paired`: two renders with independent seeds, unbiased in the simulation's variance in its ℓ2 term)."
+        } else {
+            ""
+        }
+    )?;
+    writeln!(r, "{}\n", comparison_sentence(d, base))?;
+    if d.held_out_frames {
+        writeln!(r, "Every held-out loss (the calibrated model's, each refit's, the null refit's) is measured against measured frames held out from the fit (`--held-out-frames` or `--held-out-measured`), so a refit that fits the fitted frames' own noise gains nothing there.\n")?;
+    }
+    writeln!(r, "| measured | calibrated | after the verdict's refit |\n|---|---|---|\n| ![measured](measured.png) | ![calibrated](calibrated.png) | ![after](after.png) |\n")?;
+    writeln!(r, "## 2. Where the residual lies\n")?;
+    writeln!(r, "Signed residual (red: simulation brighter, blue: darker; saturates at ±{scale_before:.3} grey levels, ±{:.1} dB, before and ±{scale_after:.3}, ±{:.1} dB, after; the colour bars read dB):\n\n| calibrated | after |\n|---|---|\n| ![residual](residual_calibrated.png) | ![residual after](residual_after.png) |\n", scale_before * base.imaging.dynamic_range_db, scale_after * base.imaging.dynamic_range_db)?;
+    writeln!(
+        r,
+        "| partition | region | share of the loss |\n|---|---|---|"
+    )?;
+    for s in &d.where_ {
+        writeln!(r, "| {} | {} | {:.3} |", s.partition, s.region, s.share)?;
+    }
+    residual_kinds(&mut r, &d.residual)?;
+    writeln!(r, "\n## 3–4. Candidate effects\n")?;
+    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error; gap explained: the share of the gap above the noise level the refit removes; limit of detection: the smallest departure of the effect parameter from its null that these data resolve, {:.0} Monte Carlo spreads of the refitted value (a lower bound). An effect is named when its excess is at least {:.2} and {:.0} standard errors, and, where a real gap remains (held-out loss above {:.1} × the noise level), it explains at least {:.0}% of the gap.\n", d.held_out_seeds, d.null_refit.shrink, DETECTION_LIMIT_SPREADS, d.rule.min_excess, d.rule.min_excess_z, d.rule.noise_factor, 100.0 * d.rule.min_gap_explained)?;
+    writeln!(
+        r,
+        "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | excess | gap explained | limit of detection | found |\n|---|---|---|---|---|---|---|---|---|---|---|"
+    )?;
+    for e in &d.effects {
+        let mut found: Vec<String> = e
+            .params
+            .iter()
+            .map(|(p, v)| match e.params_std.get(p).copied() {
+                Some(std) => format!("`{p}` = {v:.4e} ± {}", std_text(std)),
+                None => format!("`{p}` = {v:.4e}"),
+            })
+            .collect();
+        if e.at_range_bound() {
+            found.push(format!(
+                "(**`{}` at the bound of its range [{:.3e}, {:.3e}]**)",
+                e.path, e.range[0], e.range[1]
+            ));
+        }
+        writeln!(
+            r,
+            "| {} | `{}` | {:.4e} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} | {} |",
+            e.effect,
+            e.path,
+            e.onset,
+            e.score,
+            e.gradient,
+            e.loss_after.map_or("—".into(), |v| format!("{v:.4e}")),
+            match (e.shrink, e.shrink_std) {
+                (Some(v), Some(se)) => format!("{v:.3} ± {se:.3}"),
+                (Some(v), None) => format!("{v:.3}"),
+                _ => "—".into(),
+            },
+            match (e.excess, e.excess_std) {
+                (Some(v), Some(se)) => format!("{v:+.3} ± {se:.3}"),
+                (Some(v), None) => format!("{v:+.3}"),
+                _ => "—".into(),
+            },
+            or_dash(e.gap_explained, |g| format!("{g:.2}")),
+            match (e.detection_limit, e.null) {
+                (Some(l), Some(null)) if e.range[0] < null => format!("±{}", short(l)),
+                (Some(l), _) => format!("+{}", short(l)),
+                _ => "—".into(),
+            },
+            found.join(", ")
+        )?;
+    }
+    let failed: Vec<String> = d
+        .effects
+        .iter()
+        .filter_map(|e| {
+            Some(format!(
+                "{} (`{}`): {}",
+                e.effect,
+                e.path,
+                e.failed.as_ref()?
+            ))
+        })
+        .collect();
+    if !failed.is_empty() {
+        writeln!(
+            r,
+            "\n**Not completed** (the diagnosis went on without them): {}.",
+            failed.join("; ")
+        )?;
+    }
+    if rounds.len() > 1 || names_an_effect(&d.verdict.effect) {
+        writeln!(r, "\n## Compound gap\n\nEach named effect is switched on at its refitted value, its parameter joins the calibration, and the diagnosis runs again ({} round(s) of at most the `--rounds` asked).\n", rounds.len())?;
+        writeln!(r, "| round | verdict | found | excess over the null refit | gap explained | what stays (held-out loss) | noise share at rays |\n|---|---|---|---|---|---|---|")?;
+        for (i, round) in rounds.iter().enumerate() {
+            let named = named_effect(round);
+            writeln!(
+                r,
+                "| {} | {} | {} | {} | {} | {:.4e} | {:.0}% at {} |",
+                i + 1,
+                round.verdict.effect,
+                named
+                    .and_then(|e| Some(format!(
+                        "`{}` = {}",
+                        e.path,
+                        short(*e.params.get(&e.path)?)
+                    )))
+                    .unwrap_or_else(|| "—".into()),
+                named
+                    .and_then(|e| Some(match e.excess_std {
+                        Some(se) => format!("{:+.3} ± {se:.3}", e.excess?),
+                        None => format!("{:+.3}", e.excess?),
+                    }))
+                    .unwrap_or_else(|| "—".into()),
+                or_dash(named.and_then(|e| e.gap_explained), |g| format!("{g:.2}")),
+                named
+                    .and_then(|e| e.loss_after)
+                    .unwrap_or(round.calibrated.loss_held_out),
+                100.0 * round.noise_check.share,
+                round.noise_check.rays,
+            )?;
+        }
+    }
+    let t = &d.timings;
+    writeln!(r, "\n## Time\n\n{wall:.1} s in all; the first round: calibration {:.1} s, held-out evaluation {:.1} s, scoring every candidate {:.1} s, refits of the candidates {:.1} s, the null refit {:.1} s, parameter spreads {:.1} s.", t.calibration_s, t.held_out_s, t.scoring_s, t.refits_s, t.null_refit_s, t.spread_s)?;
+    if nc.history.len() > 1 {
+        let steps: Vec<String> = nc
+            .history
+            .iter()
+            .map(|(rays, share)| format!("{rays} rays: {:.0}%", 100.0 * share))
+            .collect();
+        writeln!(
+            r,
+            "\nRays raised within the budget, with the simulation's noise share of the gap: {}.",
+            steps.join(" → ")
+        )?;
+    }
+    Ok(r)
+}
+
+/// A value in its parameter's own unit, fixed-point where that reads well.
+fn short(v: f64) -> String {
+    if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
+        format!("{v:.3}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// [`short`] with its sign.
+fn signed(v: f64) -> String {
+    if v >= 0.0 {
+        format!("+{}", short(v))
+    } else {
+        short(v)
+    }
+}
+
+/// A standard deviation, or why there is none.
+fn std_text(std: Option<f64>) -> String {
+    std.map_or("not determined".into(), |s| format!("{s:.2e}"))
+}
+
+/// `Some(x)` formatted by `f`, `—` for `None`.
+fn or_dash(v: Option<f64>, f: impl Fn(f64) -> String) -> String {
+    v.map_or("—".into(), f)
+}
+
+/// A Markdown table: a blank line, the header, the rule and one row per entry.
+fn table(r: &mut String, header: &[&str], rows: Vec<Vec<String>>) -> fmt::Result {
+    writeln!(
+        r,
+        "\n| {} |\n|{}",
+        header.join(" | "),
+        "---|".repeat(header.len())
+    )?;
+    for row in rows {
+        writeln!(r, "| {} |", row.join(" | "))?;
+    }
+    Ok(())
+}
+
+/// The kinds of residual (echo position, amplitude, width, texture) as tables.
+fn residual_kinds(r: &mut String, k: &ResidualReport) -> fmt::Result {
+    let mm = |v: Option<f64>, sign: bool| {
+        or_dash(v, |v| {
+            if sign {
+                format!("{:+.3}", 1e3 * v)
+            } else {
+                format!("{:.3}", 1e3 * v)
+            }
+        })
+    };
+    let db = |v: Option<f64>| or_dash(v, |v| format!("{v:+.2}"));
+    writeln!(
+        r,
+        "\nKinds of residual (also in `diagnosis.json`, `residual_kinds`):"
+    )?;
+    table(
+        r,
+        &[
+            "echo position in",
+            "shift (measured deeper +), mm",
+            "correlation once aligned",
+        ],
+        k.echo_position
+            .iter()
+            .map(|e| {
+                let limit = if e.at_search_limit {
+                    " (at the search limit)"
+                } else {
+                    ""
+                };
+                vec![
+                    e.region.clone(),
+                    format!("{}{limit}", mm(e.shift_m, true)),
+                    or_dash(e.correlation, |v| format!("{v:.2}")),
+                ]
+            })
+            .collect(),
+    )?;
+    table(
+        r,
+        &[
+            "echo amplitude in",
+            "pixels",
+            "mean level, simulated − measured, dB",
+            "echo energy, simulated / measured, dB",
+        ],
+        k.echo_amplitude
+            .iter()
+            .map(|e| {
+                vec![
+                    e.region.clone(),
+                    e.pixels.to_string(),
+                    db(e.mean_db_difference),
+                    db(e.energy_db_difference),
+                ]
+            })
+            .collect(),
+    )?;
+    table(
+        r,
+        &[
+            "boundary width (echo FWHM) of",
+            "simulated, mm",
+            "measured, mm",
+            "columns (sim / meas)",
+        ],
+        k.boundary_width
+            .iter()
+            .map(|e| {
+                vec![
+                    e.region.clone(),
+                    mm(e.simulated_fwhm_m, false),
+                    mm(e.measured_fwhm_m, false),
+                    format!("{} / {}", e.simulated_columns, e.measured_columns),
+                ]
+            })
+            .collect(),
+    )?;
+    let stats = |g: &Option<GreyStats>| match g {
+        Some(g) => vec![
+            format!("{:.3}", g.mean_grey),
+            format!("{:.3}", g.std_grey),
+            or_dash(g.speckle_snr, |v| format!("{v:.2}")),
+            format!("{:.0}%", 100.0 * g.clipped_fraction),
+        ],
+        None => vec!["—".into(); 4],
+    };
+    table(
+        r,
+        &[
+            "texture in",
+            "pixels",
+            "image",
+            "mean grey",
+            "grey std",
+            "speckle SNR",
+            "clipped",
+        ],
+        k.texture
+            .iter()
+            .flat_map(|e| {
+                [("simulated", &e.simulated), ("measured", &e.measured)].map(|(which, g)| {
+                    [
+                        vec![e.region.clone(), e.pixels.to_string(), which.into()],
+                        stats(g),
+                    ]
+                    .concat()
+                })
+            })
+            .collect(),
+    )?;
+    writeln!(r, "\n(Speckle SNR is 1.91 for fully developed speckle; clipped: pixels below the dynamic range.)")
+}

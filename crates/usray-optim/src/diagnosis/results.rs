@@ -1,0 +1,247 @@
+//! What a diagnosis found: the calibrated model, each candidate's score and
+//! refit, the null refit, the verdict, the noise check and where the time went
+//! (serialised as `diagnosis.json`, CONTRACT §5).
+
+use super::noise_budget::NoiseCheck;
+use super::residual::{RegionShare, ResidualReport};
+use super::verdict::{Verdict, VerdictRule};
+use crate::comparison::Comparison;
+use std::collections::BTreeMap;
+use usray_transport::Scene;
+
+/// The calibrated base model.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Calibrated {
+    /// Fitted free parameters.
+    pub params: BTreeMap<String, f64>,
+    /// How well each is determined: its standard deviation under the
+    /// simulation's Monte Carlo noise ([`crate::parameter_spread`]), `None`
+    /// (`null`) when the image does not determine it.
+    pub params_std: BTreeMap<String, Option<f64>>,
+    /// Loss at the calibrated parameters, seed `s` (the fit's own data).
+    pub loss: f64,
+    /// Loss at the calibrated parameters re-rendered with the held-out seeds,
+    /// averaged ([`super::DiagnoseOptions::held_out_seeds`]).
+    pub loss_held_out: f64,
+    /// The held-out losses, one per held-out seed.
+    pub held_out_losses: Vec<f64>,
+}
+
+/// The null refit: the base free parameters alone, refitted from the calibrated
+/// point for as many iterations as each candidate's refit. Every refit also
+/// continues the calibration of the base parameters, and that alone may shrink
+/// the held-out loss where the calibration had not converged; an effect must
+/// beat this control
+/// ([`EffectResult::excess`]).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct NullRefit {
+    /// Held-out loss after the null refit, averaged over the held-out seeds.
+    pub loss_after: f64,
+    /// `1 − loss_after / calibrated.loss_held_out`.
+    pub shrink: f64,
+    /// Standard error of [`NullRefit::shrink`] (as [`EffectResult::shrink_std`]).
+    pub shrink_std: Option<f64>,
+    /// The held-out losses, one per held-out seed.
+    pub held_out_losses: Vec<f64>,
+    /// Parameters the null refit found.
+    pub params: BTreeMap<String, f64>,
+}
+
+/// One scored (and possibly refitted) candidate.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct EffectResult {
+    /// Effect name.
+    pub effect: String,
+    /// Its strength parameter.
+    pub path: String,
+    /// Predicted relative loss reduction (module docs, step 3).
+    pub score: f64,
+    /// The onset: the value of the effect parameter where it was scored (the
+    /// best of [`super::Candidate::onsets`], refined), in its unit.
+    pub onset: f64,
+    /// Admissible range `[min, max]` of the effect parameter in its refit.
+    pub range: [f64; 2],
+    /// The effect parameter's null, where the effect is off ([`super::Candidate::null`];
+    /// `None` for a wall).
+    pub null: Option<f64>,
+    /// `∂L/∂θ` of the effect parameter at its onset.
+    pub gradient: f64,
+    /// Loss with the effect at its onset.
+    pub loss_onset: f64,
+    /// Held-out loss after the refit, averaged over the held-out seeds (absent
+    /// when not refitted).
+    pub loss_after: Option<f64>,
+    /// `1 − loss_after / calibrated.loss_held_out` (absent when not refitted).
+    pub shrink: Option<f64>,
+    /// Standard error of [`EffectResult::shrink`] from the spread of the
+    /// per-seed loss differences, `sd(held_j − after_j) / √K / loss_held_out`
+    /// (absent when not refitted or with one held-out seed).
+    pub shrink_std: Option<f64>,
+    /// How much more the effect's refit shrinks the held-out loss than the null
+    /// refit does: `(null_after − loss_after) / calibrated.loss_held_out`, seed
+    /// by seed (common random numbers), averaged — against the calibrated
+    /// model's held-out losses instead when the null refit ended worse than the
+    /// calibration (absent when not refitted).
+    pub excess: Option<f64>,
+    /// Standard error of [`EffectResult::excess`] from its per-seed values
+    /// (absent when not refitted or with one held-out seed).
+    pub excess_std: Option<f64>,
+    /// Share of the gap above the noise level that the refit removes:
+    /// `(loss_held_out − loss_after) / (loss_held_out − noise_loss)`; absent
+    /// when not refitted or when the held-out loss is not above the noise level.
+    pub gap_explained: Option<f64>,
+    /// The held-out losses after the refit, one per held-out seed (empty when
+    /// not refitted).
+    pub held_out_losses: Vec<f64>,
+    /// Parameters found by the refit (effect and base).
+    pub params: BTreeMap<String, f64>,
+    /// How well the refit determines each of its parameters (standard
+    /// deviation, as [`Calibrated::params_std`]; the fixed settings of the
+    /// effect are absent).
+    pub params_std: BTreeMap<String, Option<f64>>,
+    /// The smallest departure of the effect parameter from its null that these
+    /// data resolve: three times the refit's Monte Carlo
+    /// spread of it, in the parameter's unit. An effect weaker than this could
+    /// be present and go unnamed. A lower bound: the spread counts Monte Carlo
+    /// noise only (absent when not refitted, without a null, or when the
+    /// parameter is not determined).
+    pub detection_limit: Option<f64>,
+    /// Why the candidate's scoring or refit could not finish (absent when it
+    /// did): the diagnosis goes on without it.
+    pub failed: Option<String>,
+}
+
+impl EffectResult {
+    /// Whether the refit left the effect parameter within 1% of its range's
+    /// width from a bound: the data may want a stronger effect than the range
+    /// allows (or a wall thinner than the thinnest tried), so the value found is
+    /// a limit, not an estimate. `false` when not refitted.
+    ///
+    /// ```
+    /// use std::collections::BTreeMap;
+    /// use usray_optim::EffectResult;
+    /// let mut e = EffectResult {
+    ///     effect: "depth_gain".into(),
+    ///     path: "acquisition.depth_gain_db_per_cm".into(),
+    ///     score: 0.2, onset: 0.0, range: [0.0, 10.0], null: Some(0.0), gradient: -1e-3,
+    ///     loss_onset: 1e-2, loss_after: Some(7e-3), shrink: Some(0.3),
+    ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01),
+    ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
+    ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None,
+    ///     failed: None,
+    /// };
+    /// e.params.insert(e.path.clone(), 9.999);
+    /// assert!(e.at_range_bound());
+    /// e.params.insert(e.path.clone(), 2.5);
+    /// assert!(!e.at_range_bound());
+    /// ```
+    pub fn at_range_bound(&self) -> bool {
+        let [lo, hi] = self.range;
+        let margin = 0.01 * (hi - lo);
+        self.params
+            .get(&self.path)
+            .is_some_and(|v| *v <= lo + margin || *v >= hi - margin)
+    }
+
+    /// How far the refit moved the effect parameter from its null, in its
+    /// Monte Carlo spreads: `(found − null) / spread`; `None` when not
+    /// refitted, without a null or spread. `|z|` below 3 (the limit of
+    /// detection, [`EffectResult::detection_limit`]) means these data do not tell the effect
+    /// from its absence by its parameter.
+    ///
+    /// ```
+    /// use std::collections::BTreeMap;
+    /// use usray_optim::EffectResult;
+    /// let path = "acquisition.depth_gain_db_per_cm".to_string();
+    /// let e = EffectResult {
+    ///     effect: "depth_gain".into(), path: path.clone(), score: 0.1, onset: 0.0,
+    ///     range: [0.0, 10.0], null: Some(0.0), gradient: -1e-3, loss_onset: 1e-2,
+    ///     loss_after: Some(9e-3), shrink: Some(0.1), shrink_std: Some(0.01),
+    ///     excess: Some(0.05), excess_std: Some(0.01), gap_explained: None,
+    ///     held_out_losses: vec![9e-3],
+    ///     params: BTreeMap::from([(path.clone(), 1.5)]),
+    ///     params_std: BTreeMap::from([(path, Some(0.75))]),
+    ///     detection_limit: Some(2.25), failed: None,
+    /// };
+    /// // Found +1.5 dB/cm at a spread of 0.75: two spreads from no gain.
+    /// assert_eq!(e.null_z(), Some(2.0));
+    /// ```
+    pub fn null_z(&self) -> Option<f64> {
+        let found = self.params.get(&self.path)?;
+        let spread = (*self.params_std.get(&self.path)?)?;
+        Some((found - self.null?) / spread)
+    }
+}
+
+/// Wall time of the diagnosis steps, seconds.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct Timings {
+    /// Step 1.
+    pub calibration_s: f64,
+    /// Step 3, scoring every candidate.
+    pub scoring_s: f64,
+    /// Step 3–4, the candidates' refits and their held-out evaluation.
+    pub refits_s: f64,
+    /// Step 4's control, the null refit and its held-out evaluation.
+    pub null_refit_s: f64,
+    /// Noise level and held-out evaluation of the calibrated model.
+    pub held_out_s: f64,
+    /// How well the calibration and each refit determine their parameters
+    /// (the Jacobian's and the extra seeds' renders).
+    pub spread_s: f64,
+    /// The whole diagnosis.
+    pub total_s: f64,
+}
+
+/// Everything a diagnosis found (serialised as `diagnosis.json`, CONTRACT §5).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Diagnosis {
+    /// Step 1.
+    pub calibrated: Calibrated,
+    /// Step 2: region shares of the calibrated residual (all partitions).
+    #[serde(rename = "where")]
+    pub where_: Vec<RegionShare>,
+    /// Step 3–4, ranked by score, most responsible first.
+    pub effects: Vec<EffectResult>,
+    /// Step 4's control: the base parameters refitted alone.
+    pub null_refit: NullRefit,
+    /// The thresholds the verdict applied.
+    pub rule: VerdictRule,
+    /// Step 5.
+    pub verdict: Verdict,
+    /// Monte Carlo noise level: loss between the calibrated model's images for
+    /// seed `s` and for each held-out seed, averaged (the paired loss against
+    /// its own seed-`s` image with [`super::DiagnoseOptions::paired`]).
+    pub noise_loss: f64,
+    /// The simulation's noise as a share of the gap, at the rays used, and
+    /// what a decision would have needed ([`crate::simulation_noise_share`]).
+    pub noise_check: NoiseCheck,
+    /// Noise realisations (pairs of seeds) behind each `params_std`.
+    pub spread_pairs: usize,
+    /// Held-out seeds behind each held-out loss and the noise level.
+    pub held_out_seeds: usize,
+    /// Whether every loss was the paired loss ([`super::DiagnoseOptions::paired`]).
+    pub paired: bool,
+    /// How the images were compared in every loss after the calibration (its
+    /// smoothing and the measurement's noise floor).
+    pub comparison: Comparison,
+    /// Whether the held-out losses were measured against held-out measured
+    /// data (other frames, [`super::DiagnoseOptions::held_out_measured`]) rather than
+    /// the fitted data.
+    pub held_out_frames: bool,
+    /// Where each step's time went.
+    pub timings: Timings,
+    /// The full residual analysis of the calibrated model (kinds of residual).
+    #[serde(skip)]
+    pub residual: ResidualReport,
+    /// Calibrated simulated image (seed `s`).
+    #[serde(skip)]
+    pub calibrated_image: Vec<f64>,
+    /// Simulated image after the verdict's refit (the calibrated one when none).
+    #[serde(skip)]
+    pub after_image: Vec<f64>,
+    /// The scene of the verdict's refit: the named effect switched on at its
+    /// fitted value (absent when no effect is named).
+    #[serde(skip)]
+    pub after_scene: Option<Scene>,
+}

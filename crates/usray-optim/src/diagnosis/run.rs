@@ -1,0 +1,270 @@
+//! A diagnosis's steps in order ([`diagnose`]), and the compound-gap rounds
+//! that switch a named effect on and diagnose again ([`diagnose_compound`]).
+
+use super::calibration::{calibrate_within_budget, calibration_spec, default_free_params};
+use super::catalogue::catalogue;
+use super::options::DiagnoseOptions;
+use super::parameter_candidates::parameter_candidates;
+use super::refits::{null_refit, refit_leading, Control};
+use super::residual::{analyse_residual, ResidualOptions};
+use super::results::{Calibrated, Diagnosis, EffectResult, Timings};
+use super::screening::{screen, Screening};
+use super::verdict::{name_effect, unnamed_verdict, Verdict};
+use crate::spread::parameter_spread;
+use crate::OptimError;
+use std::time::Instant;
+use usray_transport::{RenderOptions, Scene};
+
+/// Runs the diagnosis of `scene` against the measured B-mode `measured` (`[nz, nx]`
+/// on the scene's grid); `progress` receives one line per step.
+///
+/// A candidate whose scoring or refit fails (a render error at an extreme of
+/// its range) is recorded with [`EffectResult::failed`] and the diagnosis goes
+/// on without it.
+///
+/// # Errors
+/// Settings it cannot run with (`spread_pairs` or `held_out_seeds` of 0, a
+/// `noise_share` outside (0, 1), a budget that is not a positive number,
+/// held-out data of another size), a parameter the scene does not have, a
+/// measured image of the wrong shape, or a failing calibration.
+pub fn diagnose(
+    scene: &Scene,
+    measured: &[f64],
+    opts: &DiagnoseOptions,
+    mut progress: impl FnMut(&str),
+) -> Result<Diagnosis, OptimError> {
+    let held_data = opts.held_out_data(measured)?;
+    let started = Instant::now();
+    let mut timings = Timings::default();
+    let free: Vec<String> = if opts.free_params.is_empty() {
+        default_free_params(scene)
+    } else {
+        opts.free_params.clone()
+    };
+    let specs = free
+        .iter()
+        .map(|p| calibration_spec(scene, p))
+        .collect::<Result<Vec<_>, OptimError>>()?;
+    let calibrated_paths: Vec<String> = specs.iter().map(|s| s.path.clone()).collect();
+
+    // Step 1: calibrate, and raise the rays while the simulation's noise holds
+    // too large a share of the gap and the budget allows.
+    let (stage, noise_check) = calibrate_within_budget(
+        scene,
+        measured,
+        held_data,
+        &specs,
+        opts,
+        started,
+        &mut timings,
+        &mut progress,
+    )?;
+    let t = Instant::now();
+    let cal_std = parameter_spread(
+        &stage.objective,
+        &stage.params,
+        &stage.eval.image.data,
+        &stage.held[0].image.data,
+        opts.spread_pairs,
+    )?;
+    timings.spread_s += t.elapsed().as_secs_f64();
+
+    // Step 2: where.
+    let residual = analyse_residual(
+        &stage.scene,
+        &stage.eval.image.data,
+        measured,
+        &ResidualOptions::default(),
+    )?;
+
+    // Step 3: score every candidate by one value + gradient at its onset.
+    let t = Instant::now();
+    let mut candidates = catalogue(&stage.scene);
+    candidates.extend(parameter_candidates(&stage.scene, &calibrated_paths));
+    let Screening {
+        mut effects,
+        starts,
+        order,
+    } = screen(&candidates, &stage, measured, &mut progress);
+    timings.scoring_s = t.elapsed().as_secs_f64();
+
+    // Step 4: the null refit, then the leading candidates' refits; held-out
+    // shrinks.
+    let t = Instant::now();
+    progress("refitting the base parameters alone (the null refit)");
+    let Control {
+        null_refit,
+        baseline,
+    } = null_refit(&stage, &specs, measured, held_data, opts)?;
+    timings.null_refit_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let (mut refits, refit_spread_s) = refit_leading(
+        &candidates,
+        &starts,
+        &order,
+        &mut effects,
+        &stage,
+        &specs,
+        &baseline,
+        measured,
+        held_data,
+        opts,
+        &mut progress,
+    );
+    timings.refits_s = t.elapsed().as_secs_f64() - refit_spread_s;
+    timings.spread_s += refit_spread_s;
+
+    // Step 5: verdict.
+    let real_gap = stage.held_loss > opts.rule.noise_factor * stage.noise_loss;
+    let refitted: Vec<EffectResult> = refits
+        .iter()
+        .map(|r| effects[r.candidate].clone())
+        .collect();
+    let named = name_effect(&refitted, real_gap, &opts.rule).map(|(i, tied)| {
+        let k = refits[i].candidate;
+        let alternatives: Vec<String> = tied
+            .iter()
+            .map(|&j| effects[refits[j].candidate].effect.clone())
+            .filter(|e| *e != effects[k].effect)
+            .collect();
+        (i, alternatives)
+    });
+    let (verdict, after_image, after_scene) = match named {
+        Some((i, alternatives)) => {
+            let r = refits.swap_remove(i);
+            let e = &effects[r.candidate];
+            (
+                Verdict {
+                    effect: e.effect.clone(),
+                    path: Some(e.path.clone()),
+                    shrink: e.shrink.unwrap_or(0.0),
+                    alternatives,
+                },
+                r.image_s,
+                Some(r.scene),
+            )
+        }
+        None => {
+            let effect = unnamed_verdict(&refitted, &opts.rule, noise_check.passed);
+            (
+                Verdict {
+                    effect: effect.into(),
+                    path: None,
+                    shrink: 0.0,
+                    alternatives: vec![],
+                },
+                stage.eval.image.data.clone(),
+                None,
+            )
+        }
+    };
+    let ranked: Vec<EffectResult> = order.iter().map(|&k| effects[k].clone()).collect();
+    timings.total_s = started.elapsed().as_secs_f64();
+    Ok(Diagnosis {
+        calibrated: Calibrated {
+            params: specs
+                .iter()
+                .zip(&stage.params)
+                .map(|(s, v)| (s.path.clone(), *v))
+                .collect(),
+            params_std: specs
+                .iter()
+                .zip(cal_std)
+                .map(|(s, v)| (s.path.clone(), v))
+                .collect(),
+            loss: stage.eval.loss,
+            loss_held_out: stage.held_loss,
+            held_out_losses: stage.held_losses,
+        },
+        where_: residual.shares.clone(),
+        effects: ranked,
+        null_refit,
+        rule: opts.rule,
+        verdict,
+        noise_loss: stage.noise_loss,
+        noise_check,
+        spread_pairs: opts.spread_pairs,
+        held_out_seeds: opts.held_out_seeds,
+        paired: opts.paired,
+        comparison: stage.setup.comparison,
+        held_out_frames: opts.held_out_measured.is_some(),
+        timings,
+        residual,
+        calibrated_image: stage.eval.image.data,
+        after_image,
+        after_scene,
+    })
+}
+
+/// Compound gaps: diagnoses `scene`; while the verdict names an effect and
+/// fewer than `rounds` rounds have run, switches the named effect on at its
+/// refitted value, adds its parameter to the calibrated ones (within its
+/// candidate range) and diagnoses again. Returns every round's diagnosis, in
+/// order: the ranked list of effects, each with its shrink. With
+/// [`DiagnoseOptions::budget_s`], a further round runs only within what is left
+/// of the budget, and receives that remainder as its own.
+///
+/// # Errors
+/// As [`diagnose`], for the first round; a later round's error ends the list
+/// (reported through `progress`).
+pub fn diagnose_compound(
+    scene: &Scene,
+    measured: &[f64],
+    opts: &DiagnoseOptions,
+    rounds: usize,
+    mut progress: impl FnMut(&str),
+) -> Result<Vec<Diagnosis>, OptimError> {
+    let started = Instant::now();
+    let first = diagnose(scene, measured, opts, &mut progress)?;
+    let mut out = vec![first];
+    while out.len() < rounds {
+        let last = out.last().expect("one round at least");
+        let (Some(next_scene), Some(path)) = (&last.after_scene, &last.verdict.path) else {
+            break;
+        };
+        let Some(named) = last.effects.iter().find(|e| &e.path == path) else {
+            break;
+        };
+        let mut free: Vec<String> = last.calibrated.params.keys().cloned().collect();
+        free.push(format!("{path}={}:{}", named.range[0], named.range[1]));
+        let elapsed = started.elapsed().as_secs_f64();
+        // Whether to go on and the budget left, decided on the wall clock and so
+        // kept for a resumed run.
+        let round_no = out.len() + 1;
+        let (go_on, budget_s): (bool, Option<f64>) =
+            opts.journal
+                .remember(&format!("round {round_no} budget"), || {
+                    Ok(match opts.budget_s {
+                        Some(b) if b - elapsed <= 0.5 * elapsed / out.len() as f64 => (false, None),
+                        Some(b) => (true, Some(b - elapsed)),
+                        None => (true, None),
+                    })
+                })?;
+        if !go_on {
+            break;
+        }
+        let round = DiagnoseOptions {
+            free_params: free,
+            budget_s,
+            journal: opts.journal.scoped(&format!("round {round_no}")),
+            render: RenderOptions {
+                rays_per_element: Some(last.noise_check.rays),
+                ..opts.render.clone()
+            },
+            ..opts.clone()
+        };
+        progress(&format!(
+            "round {}: {} switched on, diagnosing again",
+            out.len() + 1,
+            last.verdict.effect
+        ));
+        match diagnose(next_scene, measured, &round, &mut progress) {
+            Ok(d) => out.push(d),
+            Err(e) => {
+                progress(&format!("round {} failed: {e}", out.len() + 1));
+                break;
+            }
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,163 @@
+//! The diagnosis's report from the library (`usray_optim::Report`): the files
+//! `usray diagnose` writes, from a Rust caller, on a tiny scene.
+
+use std::path::Path;
+use usray_optim::{diagnose_compound, grid_shape, DiagnoseOptions, Diagnosis, Report};
+use usray_transport::{RenderOptions, Scene};
+
+/// The cylinder scene cut down to 16 elements, one angle and a small grid at
+/// 0.4 mm, so that a diagnosis takes about a second in a debug build.
+fn tiny_scene() -> Scene {
+    let text = std::fs::read_to_string("../../scenes/cylinder.toml")
+        .unwrap()
+        .replace("n_elements = 128", "n_elements = 16")
+        .replace(
+            "angles_deg = [-10.0, -5.0, 0.0, 5.0, 10.0]",
+            "angles_deg = [0.0]",
+        )
+        .replace("x_range_m = [-0.015, 0.015]", "x_range_m = [-0.004, 0.004]")
+        .replace("z_range_m = [0.002, 0.028]", "z_range_m = [0.008, 0.02]")
+        .replace("pixel_m = 0.1e-3", "pixel_m = 0.4e-3");
+    Scene::from_toml_str(&text, "tiny.toml", "../../scenes").unwrap()
+}
+
+/// Data from the same scene with a longer pulse (5 cycles for the model's 3),
+/// and the two rounds of its quick diagnosis.
+fn diagnosed() -> (Scene, Vec<f64>, Vec<Diagnosis>) {
+    let scene = tiny_scene();
+    let mut truth = scene.clone();
+    truth.set("probe.cycles", 5.0).unwrap();
+    let render = RenderOptions {
+        rays_per_element: Some(10),
+        ..Default::default()
+    };
+    let (nz, nx) = grid_shape(&scene).unwrap();
+    // The objective's reference is unused here: only the image is wanted.
+    let measured = usray_optim::Objective::new(truth, vec![0.0; nz * nx], vec![], render)
+        .unwrap()
+        .value(&[])
+        .unwrap()
+        .image
+        .data;
+    let opts = DiagnoseOptions {
+        calibration_iters: 2,
+        refit_iters: 2,
+        confirm_top: 1,
+        held_out_seeds: 2,
+        spread_pairs: 1,
+        render: RenderOptions {
+            rays_per_element: Some(5),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let rounds = diagnose_compound(&scene, &measured, &opts, 2, |_| {}).unwrap();
+    (scene, measured, rounds)
+}
+
+/// `Report::write` writes exactly `markdown()` and the pretty-printed `json()`;
+/// the JSON holds CONTRACT §5's keys in order and one summary per round, and
+/// the Markdown names the files and the verdict.
+#[test]
+fn report_writes_markdown_and_json_of_every_round() {
+    let (scene, measured, rounds) = diagnosed();
+    let report = Report {
+        rounds: &rounds,
+        scene: &scene,
+        scene_path: Path::new("tiny.toml"),
+        measured_path: Path::new("measured.npy"),
+        measured: &measured,
+        wall_s: 1.5,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    report.write(dir.path()).unwrap();
+    let md = std::fs::read_to_string(dir.path().join("report.md")).unwrap();
+    let json = std::fs::read_to_string(dir.path().join("diagnosis.json")).unwrap();
+    assert_eq!(md, report.markdown().unwrap());
+    assert_eq!(
+        json,
+        serde_json::to_string_pretty(&report.json().unwrap()).unwrap()
+    );
+
+    let first = &rounds[0];
+    assert!(
+        md.starts_with(&format!(
+            "# usray diagnose: `tiny.toml` against `measured.npy`\n\n## Verdict: **{}**\n",
+            first.verdict.effect
+        )),
+        "{md}"
+    );
+    for section in [
+        "## 1. Calibrated base model",
+        "## 2. Where the residual lies",
+        "## 3–4. Candidate effects",
+        "## Time\n\n1.5 s in all;",
+    ] {
+        assert!(md.contains(section), "no `{section}` in\n{md}");
+    }
+    // Every candidate has its row in the table.
+    for e in &first.effects {
+        assert!(md.contains(&format!("| {} | `{}` |", e.effect, e.path)));
+    }
+
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+    assert_eq!(
+        keys,
+        [
+            "calibrated",
+            "where",
+            "effects",
+            "null_refit",
+            "rule",
+            "verdict",
+            "noise_loss",
+            "noise_check",
+            "spread_pairs",
+            "held_out_seeds",
+            "paired",
+            "comparison",
+            "held_out_frames",
+            "timings",
+            "residual_kinds",
+            "wall_seconds",
+            "rounds",
+        ]
+    );
+    assert_eq!(v["wall_seconds"], 1.5);
+    assert_eq!(v["verdict"]["effect"], first.verdict.effect.as_str());
+    assert_eq!(v["rounds"].as_array().unwrap().len(), rounds.len());
+    for (r, d) in v["rounds"].as_array().unwrap().iter().zip(&rounds) {
+        assert_eq!(r["verdict"]["effect"], d.verdict.effect.as_str());
+        assert_eq!(r["loss_held_out"], d.calibrated.loss_held_out);
+    }
+}
+
+/// A report of no rounds, or against a measured image of another size, is an
+/// error that says so, not a panic.
+#[test]
+fn report_refuses_no_rounds_and_a_measured_image_off_the_grid() {
+    let (scene, measured, rounds) = diagnosed();
+    let none = Report {
+        rounds: &[],
+        scene: &scene,
+        scene_path: Path::new("tiny.toml"),
+        measured_path: Path::new("measured.npy"),
+        measured: &measured,
+        wall_s: 0.0,
+    };
+    let err = none.markdown().unwrap_err().to_string();
+    assert!(err.contains("at least one round"), "{err}");
+    assert!(none.json().is_err());
+    let short = Report {
+        rounds: &rounds,
+        measured: &measured[1..],
+        ..none
+    };
+    let err = short.markdown().unwrap_err().to_string();
+    assert!(err.starts_with("diagnosis:"), "{err}");
+    assert!(
+        short.json().is_ok(),
+        "the JSON does not read the measured image"
+    );
+}
