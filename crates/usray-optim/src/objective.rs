@@ -19,18 +19,17 @@
 //!      since the beamformer then assumes the medium's): `+ d_sound_speed` of
 //!      [`usray_signal::BMode::calibration_vjp`];
 //!    - `probe.pitch_m` (element positions of delay-and-sum): `+ d_pitch`;
-//!    - `probe.center_frequency_hz` (IQ demodulation frequency and low-pass
-//!      cut-off): `usray-signal` gives no adjoint for these, so this part is a
-//!      central difference of `L(B_fc(P))` in the demodulation frequency alone with
-//!      the channel data `P` held fixed (two extra B-mode forwards; `B` is smooth
-//!      in `f_c`, step `10⁻⁴ f_c`). [`Evaluation::demod_fc_part`] reports it.
+//!    - `probe.center_frequency_hz` (IQ mixing phases, low-pass cut-off and the
+//!      delay-and-sum's phase rotation): `+` [`usray_signal::BMode::center_frequency_vjp`],
+//!      the exact derivative of `L(B_fc(P))` in `f_c` with the channel data `P`
+//!      held (forward duals through the demodulation, the rotation from the
+//!      delay-and-sum's delays). [`Evaluation::demod_fc_part`] reports it.
 //!
-//! **Paired loss** ([`Objective::paired_seed`], [`Objective::pair_seeds`]): steps 1–5
+//! **Paired loss** ([`Objective::paired_seed`], [`Objective::pair_seeds`]): steps 1–6
 //! run for two independent seeds, the loss is
 //! [`L1L2::paired_value_and_gradient`] of the two images (its ℓ2 term is
 //! `λ₂ (I_a − R)(I_b − R)`, unbiased in the simulation's Monte Carlo variance), and
-//! the two renders' gradients add; step 6's demodulation-frequency part is the
-//! central difference of the whole paired loss, counted once.
+//! the two renders' gradients add.
 //!
 //! **Fixed-seed semantics.** The gradient is that of the sampled estimator with
 //! common random numbers: the seed and ray budget are fixed, sampling decisions are
@@ -140,8 +139,9 @@ pub struct Evaluation {
     pub gradient: Vec<f64>,
     /// The simulated B-mode at `θ` (for a paired loss, the first seed's).
     pub image: Image,
-    /// For each parameter, the part of the gradient from the IQ demodulation
-    /// frequency (non-zero only for `probe.center_frequency_hz`).
+    /// For each parameter, the part of the gradient from the image formation's
+    /// centre frequency with the channel data held (IQ demodulation and the
+    /// delay-and-sum's rotation; non-zero only for `probe.center_frequency_hz`).
     pub demod_fc_part: Vec<f64>,
     /// Render wall time, seconds.
     pub render_seconds: f64,
@@ -347,16 +347,11 @@ impl Objective {
                 self.image_loss_and_gradient(&image, Some(image_b))
             }
         };
-        let fc_part = match &second {
-            None => FcPart::Alone,
-            Some(((ch_b, ..), _)) => FcPart::WithPaired(ch_b),
-        };
         let (mut gradient, mut demod_fc_part) =
-            self.backward(&scene, &self.opts, &ch, &op, &mut ws, &d_image, fc_part)?;
+            self.backward(&scene, &self.opts, &ch, &op, &mut ws, &d_image)?;
         // Each render carries its own part of the gradient.
         if let Some(((ch_b, op_b, ws_b, _, _), o)) = &mut second {
-            let (g_b, d_b) =
-                self.backward(&scene, o, ch_b, op_b, ws_b, &d_image_b, FcPart::Counted)?;
+            let (g_b, d_b) = self.backward(&scene, o, ch_b, op_b, ws_b, &d_image_b)?;
             for (g, p) in gradient.iter_mut().zip(g_b) {
                 *g += p;
             }
@@ -495,11 +490,7 @@ impl Objective {
     /// `∂L/∂θ` of one render (`ch` under `opts`, B-mode operator `op` after its
     /// forward pass in `ws`) given `∂L/∂I` of its image: the transport part by
     /// path replay (per micro-batch) plus the image-formation parts, and the
-    /// demodulation-frequency part on its own. The latter is the whole loss's
-    /// central difference in `f_c` with the channel data held: for a paired
-    /// loss it is computed once, on the first render's call, with `other` the
-    /// second render's channel data ([`FcPart`]).
-    #[allow(clippy::too_many_arguments)]
+    /// centre-frequency part of the image formation on its own.
     fn backward(
         &self,
         scene: &Scene,
@@ -508,7 +499,6 @@ impl Objective {
         op: &BMode,
         ws: &mut usray_signal::Workspace,
         d_image: &[f64],
-        fc_part: FcPart<'_>,
     ) -> Result<(Vec<f64>, Vec<f64>), OptimError> {
         let d_channels = op.vjp(ws, d_image)?;
         let paths: Vec<&str> = self.specs.iter().map(|s| s.path.as_str()).collect();
@@ -561,13 +551,7 @@ impl Objective {
                     ImagingRole::SoundSpeed => gradient[j] += cal.d_sound_speed,
                     ImagingRole::Pitch => gradient[j] += cal.d_pitch,
                     ImagingRole::CenterFrequency => {
-                        let part = match fc_part {
-                            FcPart::Alone => self.demod_fc_derivative(scene, ch, None, ws)?,
-                            FcPart::WithPaired(b) => {
-                                self.demod_fc_derivative(scene, ch, Some(b), ws)?
-                            }
-                            FcPart::Counted => 0.0,
-                        };
+                        let part = op.center_frequency_vjp(ch, ws, d_image)?;
                         demod_fc_part[j] = part;
                         gradient[j] += part;
                     }
@@ -577,52 +561,11 @@ impl Objective {
         }
         Ok((gradient, demod_fc_part))
     }
-
-    /// `∂L(B_fc(P))/∂f_c` with `P` fixed: central difference in the demodulation
-    /// frequency (see the module docs). The operators at `f_c ± h` differ from
-    /// the forward's in that frequency only, so they read `ch` as it is (no copy
-    /// of the data) and reuse the forward's workspace `ws` (overwritten).
-    fn demod_fc_derivative(
-        &self,
-        scene: &Scene,
-        ch: &ChannelData,
-        paired: Option<&ChannelData>,
-        ws: &mut usray_signal::Workspace,
-    ) -> Result<f64, OptimError> {
-        let fc = ch.meta.center_frequency_hz;
-        let h = 1e-4 * fc;
-        let mut meta = ch.meta.clone();
-        let mut at = |f: f64| -> Result<f64, OptimError> {
-            meta.center_frequency_hz = f;
-            let op = BMode::new(&scene.imaging_settings(), &meta, ch.n_samples)?;
-            let img = op.forward(ch, ws)?;
-            Ok(match paired {
-                None => self.image_loss(&img, None),
-                Some(b) => {
-                    let img_b = op.forward(b, ws)?;
-                    self.image_loss(&img, Some(&img_b))
-                }
-            })
-        };
-        Ok((at(fc + h)? - at(fc - h)?) / (2.0 * h))
-    }
 }
 
 /// Offset of the paired loss's second seed from the first
 /// ([`Objective::pair_seeds`]).
 pub const PAIRED_SEED_OFFSET: u64 = 1 << 32;
-
-/// Which render's call of `Objective::backward` adds the demodulation-frequency
-/// part (a central difference of the whole loss, counted once).
-#[derive(Clone, Copy)]
-enum FcPart<'a> {
-    /// The one-render loss.
-    Alone,
-    /// The first render of a paired loss, with the second's channel data.
-    WithPaired(&'a ChannelData),
-    /// The second render of a paired loss: already counted.
-    Counted,
-}
 
 /// The imaging grid shape `(nz, nx)` of a scene.
 pub fn grid_shape(scene: &Scene) -> Result<(usize, usize), OptimError> {

@@ -16,6 +16,9 @@
 //! (`E = |u|`, all transmits coherent). Coherent summation across frames would be
 //! wrong for a moving object (the phases of successive frames differ).
 //!
+//! The derivative in the centre frequency with the channel data held,
+//! [`BMode::center_frequency_vjp`], is in `bmode/center_frequency.rs`.
+//!
 //! The forward pass keeps what the VJP needs in a [`Workspace`] allocated once;
 //! nothing is allocated per pixel or per sample. Shape mismatches between the
 //! operator, the channel data, the workspace and the cotangents are reported as
@@ -31,6 +34,8 @@ use crate::demod::{Analytic, IqDemod};
 use crate::error::{Result, SignalError};
 use crate::gain::gain_table;
 use crate::post;
+
+mod center_frequency;
 
 /// Largest image (`nz · nx`) [`ImagingSettings::grid`] accepts.
 pub const MAX_PIXELS: usize = 20_000_000;

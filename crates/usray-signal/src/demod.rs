@@ -15,13 +15,23 @@
 //!
 //! Complex gradients throughout this crate follow that convention: the cotangent of
 //! a complex value `u` is `∂L/∂Re u + i ∂L/∂Im u`.
+//!
+//! **Derivative in `f_c`** ([`IqDemod::fc_tangent`]): `f_c` enters the mixing
+//! phases `φ_n` and, with the low-pass cut-off a fixed fraction of `f_c`
+//! (PyMUST `rf2iq`, [`crate::BMode`]), every filter coefficient. The tangent
+//! `∂IQ/∂f_c` with the record held is the same computation in a forward dual
+//! ([`usray_ad::Dual`]): phases, Butterworth design
+//! ([`crate::filter::butter_lowpass_sections`]) and filter
+//! ([`crate::filter::filtfilt_real`]) — exact, no finite difference.
 
 use std::sync::Arc;
 
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
-use crate::filter::Sos;
+use usray_ad::{Dual, Real};
+
+use crate::filter::{butter_lowpass_sections, filtfilt_real, Sos};
 
 /// IQ demodulator for records of a fixed length.
 #[derive(Clone, Debug)]
@@ -32,6 +42,10 @@ pub struct IqDemod {
     pub fc: f64,
     /// Sampling frequency, Hz.
     pub fs: f64,
+    /// The low-pass cut-off, Hz.
+    f_cut: f64,
+    /// The low-pass's Butterworth order.
+    order: usize,
 }
 
 impl IqDemod {
@@ -42,6 +56,8 @@ impl IqDemod {
             lowpass: Sos::butter_lowpass(order, f_cut, fs)?,
             fc,
             fs,
+            f_cut,
+            order,
         })
     }
 
@@ -71,6 +87,58 @@ impl IqDemod {
         for o in out.iter_mut() {
             *o = Complex64::new(2.0 * o.re, 2.0 * o.im);
         }
+    }
+
+    /// `∂IQ/∂f_c` of one record starting at absolute time `t0`, with the
+    /// record `rf` held and the cut-off moving with `f_c` (`f_cut ∝ f_c`): the
+    /// tangent of [`IqDemod::forward`] by a forward dual through the mixing
+    /// phases `φ_n = 2π f_c t_n`, the Butterworth design and the zero-phase
+    /// filter (module docs).
+    ///
+    /// ```
+    /// use usray_signal::demod::IqDemod;
+    /// use usray_signal::Complex64;
+    /// let rf: Vec<f64> = (0..64).map(|n| (0.9 * n as f64).sin()).collect();
+    /// let at = |fc: f64| {
+    ///     let d = IqDemod::new(fc, 20e6, 0.4 * fc, 4).unwrap();
+    ///     let mut out = vec![Complex64::new(0.0, 0.0); 64];
+    ///     d.forward(&rf, 1e-6, &mut out);
+    ///     out
+    /// };
+    /// let d = IqDemod::new(3e6, 20e6, 0.4 * 3e6, 4).unwrap();
+    /// let exact = d.fc_tangent(&rf, 1e-6);
+    /// let h = 10.0;
+    /// let (p, m) = (at(3e6 + h), at(3e6 - h));
+    /// for n in 0..64 {
+    ///     let fd = (p[n] - m[n]) / (2.0 * h);
+    ///     assert!((fd - exact[n]).norm() < 1e-6 * exact[n].norm().max(1e-9));
+    /// }
+    /// ```
+    pub fn fc_tangent(&self, rf: &[f64], t0: f64) -> Vec<Complex64> {
+        let fc = Dual::<1>::variable(self.fc, 0);
+        // f_cut = k·f_c: ∂f_cut/∂f_c = f_cut/f_c.
+        let f_cut = Dual {
+            re: self.f_cut,
+            eps: [self.f_cut / self.fc],
+        };
+        let Some(sections) = butter_lowpass_sections(self.order, f_cut, self.fs) else {
+            return vec![Complex64::new(0.0, 0.0); rf.len()];
+        };
+        let w = fc.scale(2.0 * core::f64::consts::PI);
+        let (mut re, mut im): (Vec<Dual<1>>, Vec<Dual<1>>) = rf
+            .iter()
+            .enumerate()
+            .map(|(k, &x)| {
+                let phi = w.scale(t0 + k as f64 / self.fs);
+                (phi.cos().scale(x), -phi.sin().scale(x))
+            })
+            .unzip();
+        filtfilt_real(&sections, &mut re);
+        filtfilt_real(&sections, &mut im);
+        re.iter()
+            .zip(&im)
+            .map(|(r, i)| Complex64::new(2.0 * r.eps[0], 2.0 * i.eps[0]))
+            .collect()
     }
 
     /// VJP on one record: given the IQ cotangent, write `r̄f`.

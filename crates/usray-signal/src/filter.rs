@@ -15,17 +15,22 @@
 //! filter run in reverse order). scipy's `filtfilt` differs only near the record
 //! ends (it pads with an odd extension and starts from steady state).
 
+use core::ops::{Add, Sub};
+
 use rustfft::num_complex::Complex64;
+use usray_ad::Real;
 
 use crate::das::Sample;
 
-/// One biquad `b0 + b1 z⁻¹ + b2 z⁻² / (1 + a1 z⁻¹ + a2 z⁻²)`.
+/// One biquad `b0 + b1 z⁻¹ + b2 z⁻² / (1 + a1 z⁻¹ + a2 z⁻²)`, coefficients in
+/// `T` (`f64` to filter; a dual number to differentiate the design,
+/// [`butter_lowpass_sections`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Biquad {
+pub struct Biquad<T = f64> {
     /// Numerator `b0, b1, b2`.
-    pub b: [f64; 3],
+    pub b: [T; 3],
     /// Denominator `a1, a2` (`a0 = 1`).
-    pub a: [f64; 2],
+    pub a: [T; 2],
 }
 
 /// A cascade of second-order sections.
@@ -35,9 +40,18 @@ pub struct Sos {
     pub sections: Vec<Biquad>,
 }
 
-fn butter_sections(order: usize, wn: f64, highpass: bool) -> Vec<Biquad> {
+/// The Butterworth sections at normalised cut-off `wn` (1 = Nyquist) in any
+/// `T: Real`. The complex arithmetic of the bilinear transform is written
+/// out in num-complex's order of operations (`Complex64` `Mul<f64>`,
+/// `f64 / Complex64`, `Div`, `norm_sqr`), so that the `f64` design is the
+/// one `Complex64` gave, bit for bit; the poles of the prototype do not
+/// depend on `wn` and stay `Complex64`.
+fn butter_sections<T: Real>(order: usize, wn: T, highpass: bool) -> Vec<Biquad<T>> {
     // fs = 2 normalisation (scipy): warped = 4 tan(π wn / 2), bilinear z = (4 + s)/(4 − s).
-    let warped = 4.0 * (core::f64::consts::PI * wn / 2.0).tan();
+    let warped = (wn.scale(core::f64::consts::PI) / T::from_f64(2.0))
+        .tan()
+        .scale(4.0);
+    let (zero, one, two, four) = (T::zero(), T::one(), T::from_f64(2.0), T::from_f64(4.0));
     let n = order as f64;
     let mut out = Vec::new();
     for k in 1..=order {
@@ -46,35 +60,45 @@ fn butter_sections(order: usize, wn: f64, highpass: bool) -> Vec<Biquad> {
         if p.im > 1e-12 {
             continue; // take each conjugate pair once (the one with im < 0) and real poles
         }
-        let s = if highpass { warped / p } else { p * warped };
-        let zd = (Complex64::new(4.0, 0.0) + s) / (Complex64::new(4.0, 0.0) - s);
+        // The analog pole at the warped cut-off: `warped / p` or `p · warped`.
+        let s = if highpass {
+            let ns = T::from_f64(p.norm_sqr());
+            (warped.scale(p.re) / ns, zero - warped.scale(p.im) / ns)
+        } else {
+            (warped.scale(p.re), warped.scale(p.im))
+        };
+        // zd = (4 + s) / (4 − s).
+        let (a, b) = (four + s.0, zero + s.1);
+        let (c, d) = (four - s.0, zero - s.1);
+        let ns = c * c + d * d;
+        let zd = ((a * c + b * d) / ns, (b * c - a * d) / ns);
         if p.im.abs() <= 1e-12 {
-            let zr = zd.re;
+            let zr = zd.0;
             if highpass {
-                let g = (1.0 + zr) / 2.0;
+                let g = (one + zr) / two;
                 out.push(Biquad {
-                    b: [g, -g, 0.0],
-                    a: [-zr, 0.0],
+                    b: [g, -g, zero],
+                    a: [-zr, zero],
                 });
             } else {
-                let g = (1.0 - zr) / 2.0;
+                let g = (one - zr) / two;
                 out.push(Biquad {
-                    b: [g, g, 0.0],
-                    a: [-zr, 0.0],
+                    b: [g, g, zero],
+                    a: [-zr, zero],
                 });
             }
         } else {
-            let (a1, a2) = (-2.0 * zd.re, zd.norm_sqr());
+            let (a1, a2) = (zd.0.scale(-2.0), zd.0 * zd.0 + zd.1 * zd.1);
             if highpass {
-                let g = (1.0 - a1 + a2) / 4.0;
+                let g = (one - a1 + a2) / four;
                 out.push(Biquad {
-                    b: [g, -2.0 * g, g],
+                    b: [g, g.scale(-2.0), g],
                     a: [a1, a2],
                 });
             } else {
-                let g = (1.0 + a1 + a2) / 4.0;
+                let g = (one + a1 + a2) / four;
                 out.push(Biquad {
-                    b: [g, 2.0 * g, g],
+                    b: [g, g.scale(2.0), g],
                     a: [a1, a2],
                 });
             }
@@ -83,14 +107,60 @@ fn butter_sections(order: usize, wn: f64, highpass: bool) -> Vec<Biquad> {
     out
 }
 
+/// The sections of [`Sos::butter_lowpass`] with the cut-off `f_cut` (Hz) in
+/// any `T: Real`: in a dual number, the derivative of every coefficient in
+/// the cut-off. `None` unless `0 < f_cut < fs/2`.
+///
+/// ```
+/// use usray_ad::Dual;
+/// use usray_signal::filter::{butter_lowpass_sections, Sos};
+/// let plain = Sos::butter_lowpass(5, 2e6, 20e6).unwrap();
+/// let dual = butter_lowpass_sections(5, Dual::<1>::variable(2e6, 0), 20e6).unwrap();
+/// assert_eq!(plain.sections[0].b[0], dual[0].b[0].re);
+/// ```
+pub fn butter_lowpass_sections<T: Real>(order: usize, f_cut: T, fs: f64) -> Option<Vec<Biquad<T>>> {
+    let wn = f_cut.scale(2.0) / T::from_f64(fs);
+    let w = wn.value();
+    (w > 0.0 && w < 1.0 && order > 0).then(|| butter_sections(order, wn, false))
+}
+
+/// One section over `x` in place, causal, zero initial state (direct form II
+/// transposed), with `mul(sample, coefficient)`: the one recursion behind
+/// the filter on channel samples ([`Sos::filter_in_place`]) and on `T: Real`
+/// ([`filtfilt_real`]).
+#[inline(always)]
+fn run_section<S, C: Copy>(s: &Biquad<C>, zero: S, x: &mut [S], mul: impl Fn(S, C) -> S)
+where
+    S: Copy + Add<Output = S> + Sub<Output = S>,
+{
+    let (mut z1, mut z2) = (zero, zero);
+    for v in x.iter_mut() {
+        let xi = *v;
+        let y = mul(xi, s.b[0]) + z1;
+        z1 = mul(xi, s.b[1]) - mul(y, s.a[0]) + z2;
+        z2 = mul(xi, s.b[2]) - mul(y, s.a[1]);
+        *v = y;
+    }
+}
+
+/// Zero-phase filtering `x ← R F R F x` ([`Sos::filtfilt_in_place`]) with the
+/// coefficients and the samples in any `T: Real`: with the sections of
+/// [`butter_lowpass_sections`] in a dual number, the derivative of the
+/// filtered record in the cut-off.
+pub fn filtfilt_real<T: Real>(sections: &[Biquad<T>], x: &mut [T]) {
+    for _ in 0..2 {
+        for s in sections {
+            run_section(s, T::zero(), x, |v, k| v * k);
+        }
+        x.reverse();
+    }
+}
+
 impl Sos {
     /// Butterworth low-pass of `order`, cut-off `f_cut` Hz (−3 dB per pass), at `fs` Hz.
     /// Returns `None` unless `0 < f_cut < fs/2`.
     pub fn butter_lowpass(order: usize, f_cut: f64, fs: f64) -> Option<Sos> {
-        let wn = 2.0 * f_cut / fs;
-        (wn > 0.0 && wn < 1.0 && order > 0).then(|| Sos {
-            sections: butter_sections(order, wn, false),
-        })
+        butter_lowpass_sections(order, f_cut, fs).map(|sections| Sos { sections })
     }
     /// Butterworth band-pass as the cascade high-pass(`f_lo`) · low-pass(`f_hi`), each
     /// of `order`. Returns `None` unless `0 < f_lo < f_hi < fs/2`.
@@ -108,14 +178,7 @@ impl Sos {
     /// parts filtered independently, in one pass).
     pub fn filter_in_place<T: Sample>(&self, x: &mut [T]) {
         for s in &self.sections {
-            let (mut z1, mut z2) = (T::zero(), T::zero());
-            for v in x.iter_mut() {
-                let xi = *v;
-                let y = xi.scale(s.b[0]) + z1;
-                z1 = xi.scale(s.b[1]) - y.scale(s.a[0]) + z2;
-                z2 = xi.scale(s.b[2]) - y.scale(s.a[1]);
-                *v = y;
-            }
+            run_section(s, T::zero(), x, |v, k| v.scale(k));
         }
     }
 

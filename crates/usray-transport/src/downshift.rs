@@ -39,69 +39,40 @@
 //! A scene without attenuation uses one record and the unshifted pulse: its
 //! data are those of the renderer without this module, bit for bit.
 
-use crate::render::{max_transmit_delay_s, sample_grid};
-use crate::scene::Scene;
 use usray_ad::Real;
 
 /// Spacing `h` of the nodes, in spectral standard deviations `σ_f`.
 pub const NODE_SPACING: f64 = 0.5;
 
-/// The number of nodes a render of `scene` needs: 1 without attenuation (the
-/// plain pulse) and, with it, enough to cover the largest shift any deposit
-/// inside the records can have, at least 2. `differentiated`: an attenuation
-/// is differentiated (then at least 2 even at `α = 0`, for `∂p/∂s` at `s = 0`).
+/// The number of nodes a render needs: 1 without attenuation (the plain
+/// pulse) and, with it, enough to cover the largest shift any deposit inside
+/// the records can have, at least 2. `alpha_max` (dB/(cm·MHz)) and `c_max`
+/// (m/s) are the largest attenuation and sound speed of the scene's media,
+/// `t_end` (s) the records' end plus the largest transmit delay, `fc` (Hz)
+/// and `cycles` the pulse's ([`crate::plan::PulsePlan::nodes`] adds the
+/// second node a differentiated attenuation needs at `α = 0`).
 ///
 /// The bound: a deposit inside the records has travelled at most
-/// `L = c_max·(t_end + max|delay|)` (the transmit delays are at least
-/// `−max|x_e sin θ|/c`), so `β ≤ α_max·L` and `s = βσ_f ≤ α_max·L·σ_f`. It is
-/// capped at [`max_shift`], where the model stops being valid; larger shifts
-/// are placed at the cap ([`basis`]), so that an extreme attenuation cannot
-/// ask for an unbounded number of records.
+/// `L = c_max·t_end` (the transmit delays are at least `−max|x_e sin θ|/c`),
+/// so `β ≤ α_max·L` and `s = βσ_f ≤ α_max·L·σ_f`. It is capped at
+/// [`max_shift`], where the model stops being valid; larger shifts are placed
+/// at the cap ([`basis`]), so that an extreme attenuation cannot ask for an
+/// unbounded number of records.
 ///
 /// ```
-/// # let text = include_str!("../../../scenes/cylinder.toml");
-/// # let mut scene = usray_transport::Scene::from_toml_str(text, "cylinder.toml", ".").unwrap();
 /// use usray_transport::downshift::node_count;
-/// assert_eq!(node_count(&scene, false), 1);
-/// assert_eq!(node_count(&scene, true), 2);
-/// scene.set("medium.attenuation_db_cm_mhz", 1.0).unwrap();
-/// assert!(node_count(&scene, false) >= 2);
+/// assert_eq!(node_count(0.0, 1570.0, 50e-6, 5e6, 3.0), 1);
+/// assert!(node_count(1.0, 1570.0, 50e-6, 5e6, 3.0) >= 2);
 /// // 100 dB/(cm·MHz): capped at a shift of f_c/2 (4 σ_f for 3 cycles).
-/// scene.set("medium.attenuation_db_cm_mhz", 100.0).unwrap();
-/// assert_eq!(node_count(&scene, false), 10);
+/// assert_eq!(node_count(100.0, 1570.0, 50e-6, 5e6, 3.0), 10);
 /// ```
-pub fn node_count(scene: &Scene, differentiated: bool) -> usize {
-    let media = std::iter::once((
-        &scene.medium.attenuation_db_cm_mhz,
-        scene.medium.sound_speed_m_s,
-    ))
-    .chain(
-        scene
-            .materials
-            .values()
-            .map(|m| (&m.attenuation_db_cm_mhz, m.sound_speed_m_s)),
-    );
-    let (mut alpha_max, mut c_max) = (0.0_f64, 0.0_f64);
-    for (a, c) in media {
-        alpha_max = alpha_max.max(*a);
-        c_max = c_max.max(c);
-    }
+pub fn node_count(alpha_max: f64, c_max: f64, t_end: f64, fc: f64, cycles: f64) -> usize {
     if alpha_max <= 0.0 || !alpha_max.is_finite() {
-        return if differentiated { 2 } else { 1 };
+        return 1;
     }
-    let (n_samples, t0) = sample_grid(scene);
-    let fs = scene.acquisition.sampling_frequency_hz;
-    let t_end = t0 + n_samples as f64 / fs + max_transmit_delay_s(scene);
     let beta_max = crate::effects::attenuation_exponent(alpha_max, c_max * t_end);
-    let s_max = beta_max
-        * usray_signal::pulse::pulse_bandwidth_hz(
-            scene.probe.center_frequency_hz,
-            scene.probe.cycles,
-        );
-    let s_max = s_max.min(max_shift(
-        scene.probe.center_frequency_hz,
-        scene.probe.cycles,
-    ));
+    let s_max = beta_max * usray_signal::pulse::pulse_bandwidth_hz(fc, cycles);
+    let s_max = s_max.min(max_shift(fc, cycles));
     if !s_max.is_finite() {
         return 2;
     }

@@ -52,10 +52,9 @@
 //! emitting elements); each returns its partial gradient, and partials are summed
 //! in chunk order. The result is bit-identical for any thread count.
 
-use crate::integrator::{Deposit, TraceSettings};
-use crate::render::{
-    element_blocks, horizon, in_pool, sample_grid, settings, trace_block_within, RenderOptions,
-};
+use crate::integrator::{Deposit, Horizon, TraceSettings};
+use crate::plan::{AcquisitionPlan, SampleGrid};
+use crate::render::{element_blocks, in_pool, settings, trace_block_within, RenderOptions};
 use crate::scene::{Scene, SceneError, SceneT};
 use rayon::prelude::*;
 use usray_ad::{Dual, Real, Recording, Var};
@@ -96,10 +95,11 @@ pub fn channel_gradient(
     for p in params {
         scene.get(p)?;
     }
-    let (n_samples, t0) = sample_grid(scene);
-    let n_el = scene.probe.n_elements;
-    let n_tx = scene.acquisition.angles_deg.len();
-    let expected = n_tx * n_el * n_samples;
+    let plan = AcquisitionPlan::new(scene);
+    let n_samples = plan.grid.n_samples;
+    let n_el = plan.elements.len();
+    let n_tx = plan.transmits.len();
+    let expected = plan.channel_len();
     if d_channels.len() != expected {
         return Err(SceneError::new(
             &scene.source,
@@ -113,8 +113,7 @@ pub fn channel_gradient(
     if params.is_empty() {
         return Ok(Vec::new());
     }
-    let fs = scene.acquisition.sampling_frequency_hz;
-    let (fc, cycles) = (scene.probe.center_frequency_hz, scene.probe.cycles);
+    let fs = plan.grid.fs_hz;
     // Step 1: G_b = g ⋆ taps_b for the render's records `b` (the pulse, or the
     // down-shift nodes' records), each followed by g ⋆ ∂taps_b/∂f_c and
     // g ⋆ ∂taps_b/∂cycles when either is asked for.
@@ -123,60 +122,40 @@ pub fn channel_gradient(
     let nodes = if opts.impulse_only {
         1
     } else {
-        crate::downshift::node_count(scene, differentiated)
+        plan.pulse.nodes(differentiated)
     };
-    let n_buf = if nodes == 1 { 1 } else { 2 * nodes };
     let taps = (!opts.impulse_only).then(|| {
-        let mut values = crate::downshift::node_taps(fs, fc, cycles, nodes);
-        values.truncate(n_buf);
+        let values = plan.pulse.taps(fs, nodes);
         if !want_pulse {
             return values;
         }
-        let mut dtaps = crate::downshift::node_taps_with(fs, fc, cycles, nodes, |t, s, slope| {
-            let (t, f, c) = (
-                Dual::<2>::from_f64(t),
-                Dual::variable(fc, 0),
-                Dual::variable(cycles, 1),
-            );
-            if slope {
-                usray_signal::pulse::shifted_pulse_ds(t, f, c, s).eps
-            } else {
-                usray_signal::pulse::shifted_pulse(t, f, c, s).eps
-            }
-        });
-        dtaps.truncate(n_buf);
-        let mut all = Vec::with_capacity(3 * n_buf);
-        for (v, d) in values.into_iter().zip(dtaps) {
+        let mut all = Vec::with_capacity(3 * values.len());
+        for (v, d) in values
+            .into_iter()
+            .zip(plan.pulse.shape_derivative_taps(fs, nodes))
+        {
             all.push(v);
-            all.extend((0..2).map(|m| d.iter().map(|e| e[m]).collect::<Vec<_>>()));
+            all.extend(d);
         }
         all
     });
-    let adj = Adjoint::new(
-        d_channels,
-        taps.as_deref(),
-        nodes,
-        opts.threads,
-        n_samples,
-        t0,
-        fs,
-    );
+    let adj = Adjoint::new(d_channels, taps.as_deref(), nodes, opts.threads, &plan.grid);
     let s = settings(scene, opts);
     let mut grad = vec![0.0; params.len()];
     if params.len() >= REVERSE_MIN_PARAMS {
-        reverse_pass(scene, params, &adj, &s, opts, &mut grad)?;
+        reverse_pass(scene, &plan, params, &adj, &s, opts, &mut grad)?;
     } else {
         for (pass, group) in params.chunks(8).enumerate() {
             let out = &mut grad[pass * 8..pass * 8 + group.len()];
             match group.len() {
-                1 => dual_pass::<1>(scene, group, &adj, &s, opts, out)?,
-                2 => dual_pass::<2>(scene, group, &adj, &s, opts, out)?,
-                3 => dual_pass::<3>(scene, group, &adj, &s, opts, out)?,
-                4 => dual_pass::<4>(scene, group, &adj, &s, opts, out)?,
-                5 => dual_pass::<5>(scene, group, &adj, &s, opts, out)?,
-                6 => dual_pass::<6>(scene, group, &adj, &s, opts, out)?,
-                7 => dual_pass::<7>(scene, group, &adj, &s, opts, out)?,
-                _ => dual_pass::<8>(scene, group, &adj, &s, opts, out)?,
+                1 => dual_pass::<1>(scene, &plan, group, &adj, &s, opts, out)?,
+                2 => dual_pass::<2>(scene, &plan, group, &adj, &s, opts, out)?,
+                3 => dual_pass::<3>(scene, &plan, group, &adj, &s, opts, out)?,
+                4 => dual_pass::<4>(scene, &plan, group, &adj, &s, opts, out)?,
+                5 => dual_pass::<5>(scene, &plan, group, &adj, &s, opts, out)?,
+                6 => dual_pass::<6>(scene, &plan, group, &adj, &s, opts, out)?,
+                7 => dual_pass::<7>(scene, &plan, group, &adj, &s, opts, out)?,
+                _ => dual_pass::<8>(scene, &plan, group, &adj, &s, opts, out)?,
             }
         }
     }
@@ -216,10 +195,9 @@ impl Adjoint {
         taps: Option<&[Vec<f64>]>,
         nodes: usize,
         threads: Option<usize>,
-        n_samples: usize,
-        t0: f64,
-        fs: f64,
+        grid: &SampleGrid,
     ) -> Self {
+        let (n_samples, t0, fs) = (grid.n_samples, grid.t0_s, grid.fs_hz);
         let (g, stride) = match taps {
             None => (d_channels.to_vec(), 1),
             Some(taps) => {
@@ -374,6 +352,7 @@ fn chunks(n_tx: usize, n_el: usize) -> Vec<(usize, std::ops::Range<usize>)> {
 /// `out[..group.len()]`.
 fn dual_pass<const N: usize>(
     scene: &Scene,
+    plan: &AcquisitionPlan,
     group: &[&str],
     adj: &Adjoint,
     s: &TraceSettings,
@@ -385,10 +364,10 @@ fn dual_pass<const N: usize>(
             Some(i) => Dual::variable(v, i),
             None => Dual::from_f64(v),
         })?;
-    let n_el = st.n_elements;
-    let work = chunks(st.angles.len(), n_el);
+    let n_el = plan.elements.len();
+    let work = chunks(plan.transmits.len(), n_el);
     // Deposits past the records' end have no weight (`Adjoint::weights`): not traced.
-    let window = horizon(scene, &st);
+    let window = Horizon::of(&st, &plan.grid);
     let parts: Vec<([f64; N], Vec<f64>)> = in_pool(opts.threads, || {
         work.par_iter()
             .map(|(tx, els)| {
@@ -437,6 +416,7 @@ fn dual_pass<const N: usize>(
 /// One replay with a reverse-mode recording per path, adding into `out`.
 fn reverse_pass(
     scene: &Scene,
+    plan: &AcquisitionPlan,
     params: &[&str],
     adj: &Adjoint,
     s: &TraceSettings,
@@ -448,8 +428,8 @@ fn reverse_pass(
         .iter()
         .map(|p| scene.get(p))
         .collect::<Result<_, _>>()?;
-    let n_el = scene.probe.n_elements;
-    let n_tx = scene.acquisition.angles_deg.len();
+    let n_el = plan.elements.len();
+    let n_tx = plan.transmits.len();
     // Check the lift once (errors surface here, not inside the workers).
     scene.lift_with(Some(&meshes), |_, v| f64::from_f64(v))?;
     let work = chunks(n_tx, n_el);
@@ -476,7 +456,7 @@ fn reverse_pass(
                 };
                 rec.freeze();
                 // Deposits past the records' end have no weight: not traced.
-                let window = horizon(scene, &st);
+                let window = Horizon::of(&st, &plan.grid);
                 for el in els.clone() {
                     let stack = crate::integrator::element_stack(&st, el);
                     for ray in 0..s.rays_per_element {

@@ -68,6 +68,7 @@
 use crate::effects::{attenuation_and_exponent, depth_gain, ScattererField};
 use crate::fresnel::fresnel;
 use crate::ggx::{Interface, SMOOTH_ALPHA};
+use crate::plan::SampleGrid;
 use crate::probe::{
     cosine_hemisphere, element_at, element_x, transmit_delay, transmit_directivity, ReceiveLobe,
 };
@@ -240,12 +241,13 @@ pub(crate) struct Horizon {
 }
 
 impl Horizon {
-    /// The window of records of `n_samples` samples from `t0` at `fs` for the
-    /// media of `st`, or `None` when it cannot be bounded (no finite positive
-    /// sound speed). The end is pushed out by a relative 10⁻⁹ so that rounding
-    /// of the traced times (≈ 10⁻¹⁵ relative) can never skip a deposit that
-    /// would land in the record.
-    pub(crate) fn of<T: Real>(st: &SceneT<T>, n_samples: usize, t0: f64, fs: f64) -> Option<Self> {
+    /// The window of records on `grid` for the media of `st`, or `None` when
+    /// it cannot be bounded (no finite positive sound speed). The end is
+    /// pushed out by a relative 10⁻⁹ so that rounding of the traced times
+    /// (≈ 10⁻¹⁵ relative) can never skip a deposit that would land in the
+    /// record.
+    pub(crate) fn of<T: Real>(st: &SceneT<T>, grid: &SampleGrid) -> Option<Self> {
+        let (n_samples, t0, fs) = (grid.n_samples, grid.t0_s, grid.fs_hz);
         let speeds = || {
             std::iter::once(&st.medium)
                 .chain(st.objects.iter().map(|o| &o.material))
@@ -277,7 +279,7 @@ struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> {
     st: &'a SceneT<T>,
     settings: &'a TraceSettings,
     norm: T,
-    /// The largest down-shift placed, in `σ_f` (`crate::downshift::max_shift`).
+    /// The largest down-shift placed, in `σ_f` ([`SceneT::max_shift`]).
     max_shift: f64,
     /// The elements' receive directivity.
     lobe: ReceiveLobe<T>,
@@ -646,7 +648,7 @@ fn trace<T: Real>(
         st,
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
-        max_shift: crate::downshift::max_shift(st.center_frequency.value(), st.cycles.value()),
+        max_shift: st.max_shift,
         lobe: ReceiveLobe::new(st.main_lobe, st.cutoff),
         horizon,
         counters: TraceCounters::default(),

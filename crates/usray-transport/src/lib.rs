@@ -57,7 +57,7 @@
 //!   elements on `z = 0`; `t = 0` when the plane wavefront passes `(0, 0)`. An
 //!   element at `x_e` fires at `x_e·sin θ / c_img` (`c_img` = the speed the scanner
 //!   assumes, `imaging.sound_speed_m_s`, default the medium's). Records start at
-//!   `t0_s = 0` ([`render::sample_grid`]).
+//!   `t0_s = 0` ([`plan`]).
 //! - **Pulse**: `usray_signal::pulse` (paper eq. `axial_sig`), envelope FWHM =
 //!   `cycles / f_c`, i.e. `σ = (cycles/(2 f_c))² / ln 2`; centred on the time of
 //!   flight. Attenuated echoes carry the pulse with its carrier moved down by
@@ -101,7 +101,8 @@
 //!   being unbiased and smooth in every parameter, an unbiased estimate of the
 //!   derivative of the expected data up to visibility (see [`gradient`]).
 //!
-//! Modules: [`scene`] (file, validation, parameters, lifting), [`probe`],
+//! Modules: [`scene`] (file, validation, parameters, lifting), [`plan`] (the
+//! acquisition derived once: elements, transmits, sample grid, pulse), [`probe`],
 //! [`fresnel`], [`ggx`], [`rng`], [`integrator`] (the path tracer),
 //! [`deposit`] (placing echoes in time), [`downshift`] (the spectral
 //! down-shift of attenuated echoes), [`effects`], [`mod@render`] (parallel,
@@ -114,6 +115,7 @@ pub mod fresnel;
 pub mod ggx;
 pub mod gradient;
 pub mod integrator;
+pub mod plan;
 pub mod probe;
 pub mod render;
 pub mod rng;
@@ -121,5 +123,6 @@ pub mod scene;
 
 pub use gradient::channel_gradient;
 pub use integrator::{trace_path, Deposit, TraceSettings};
+pub use plan::AcquisitionPlan;
 pub use render::{render, render_lifted, trace_all, trace_block, RenderOptions, RenderStats};
 pub use scene::{Scene, SceneError, SceneT};

@@ -14,21 +14,20 @@
 //! `O(channel data)`: at most `⌈N_e/ELEMENT_BLOCK⌉` transmit-sized buffers live
 //! at once, whatever the number of rays or deposits.
 //!
-//! Sample grid: `t0_s = 0` on the clock of CONTRACT §1 (sample 0 is the instant the
-//! plane wavefront passes the array centre); `n_samples = ⌈f_s·(2·max_depth/c +
-//! max_e |x_e sin θ|/c + 4√σ)⌉ + 1` with `c` the imaging speed (the scanner's
-//! record length) and `4√σ` the pulse half-support. Echoes from steered transmits
-//! that arrive before `t = 0` (near-field, negative `x·sin θ`) are cut.
+//! The acquisition — elements, transmits, sample grid, pulse and down-shift
+//! basis — is derived once per render as an [`AcquisitionPlan`] and passed
+//! down ([`crate::plan`]).
 
 use crate::integrator::{
     element_stack, trace_path_from, trace_path_within, Deposit, Horizon, TraceCounters,
     TraceSettings,
 };
+use crate::plan::AcquisitionPlan;
 use crate::scene::{Sampler, Scene, SceneError, SceneT};
 use rayon::prelude::*;
 use std::time::Instant;
 use usray_ad::Real;
-use usray_signal::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta};
+use usray_signal::ChannelData;
 
 /// Options of a render that are not part of the scene.
 #[derive(Clone, Debug, Default)]
@@ -91,34 +90,6 @@ pub struct RenderStats {
     pub seconds: f64,
     /// `rays_traced / seconds`.
     pub rays_per_second: f64,
-}
-
-/// Number of samples per record and `t0_s` for a scene (see the module docs).
-pub fn sample_grid(scene: &Scene) -> (usize, f64) {
-    let fs = scene.acquisition.sampling_frequency_hz;
-    ((record_duration_s(scene) * fs).ceil() as usize + 1, 0.0)
-}
-
-/// Length of one channel record, s: the round trip to `max_depth_m` at the
-/// imaging speed, the largest transmit delay and the pulse's support.
-pub(crate) fn record_duration_s(scene: &Scene) -> f64 {
-    let c = scene.imaging_sound_speed();
-    let support =
-        usray_signal::pulse::pulse_support_s(scene.probe.center_frequency_hz, scene.probe.cycles);
-    2.0 * scene.acquisition.max_depth_m / c + max_transmit_delay_s(scene) + support
-}
-
-/// The largest plane-wave transmit delay, s: `max_e |x_e sin θ| / c` with `c`
-/// the imaging speed (elements at `±(N_e − 1)·pitch/2`).
-pub(crate) fn max_transmit_delay_s(scene: &Scene) -> f64 {
-    let half_ap = 0.5 * (scene.probe.n_elements as f64 - 1.0) * scene.probe.pitch_m;
-    let max_sin = scene
-        .acquisition
-        .angles_deg
-        .iter()
-        .map(|a| a.to_radians().sin().abs())
-        .fold(0.0, f64::max);
-    half_ap * max_sin / scene.imaging_sound_speed()
 }
 
 /// The trace settings of a render: the scene's, with `opts`' overrides.
@@ -211,13 +182,6 @@ pub fn trace_block<T: Real>(
     trace_block_within(st, s, tx, els, None, out)
 }
 
-/// The time window of the records of `scene` for the tracer (see
-/// [`Horizon`]): deposits later than the last sample are dropped.
-pub(crate) fn horizon<T: Real>(scene: &Scene, st: &SceneT<T>) -> Option<Horizon> {
-    let (n_samples, t0) = sample_grid(scene);
-    Horizon::of(st, n_samples, t0, scene.acquisition.sampling_frequency_hz)
-}
-
 /// [`trace_block`] for a caller that drops the deposits arriving from `horizon`
 /// on (they are not traced; the others are the same).
 pub(crate) fn trace_block_within<T: Real>(
@@ -249,36 +213,43 @@ pub fn render_lifted<T: Real>(
     st: &SceneT<T>,
     opts: &RenderOptions,
 ) -> (Vec<T>, usize, RenderStats) {
+    render_planned(
+        &AcquisitionPlan::new(scene),
+        &settings(scene, opts),
+        st,
+        opts,
+    )
+}
+
+/// [`render_lifted`] of the scene whose plan is `plan`, traced with `s`.
+fn render_planned<T: Real>(
+    plan: &AcquisitionPlan,
+    s: &TraceSettings,
+    st: &SceneT<T>,
+    opts: &RenderOptions,
+) -> (Vec<T>, usize, RenderStats) {
     let start = Instant::now();
-    let (n_samples, t0) = sample_grid(scene);
-    let s = settings(scene, opts);
-    let n_el = st.n_elements;
-    let n_tx = st.angles.len();
-    let fs = st.fs;
+    let grid = plan.grid;
+    let (n_samples, t0, fs) = (grid.n_samples, grid.t0_s, grid.fs_hz);
+    let n_el = plan.elements.len();
+    let n_tx = plan.transmits.len();
     let rec_len = n_el * n_samples;
     let blocks = element_blocks(n_el);
     // The splat drops deposits past the records' end: they are not traced.
-    let window = horizon(scene, st);
+    let window = Horizon::of(st, &grid);
     // Records per transmit: one for the plain pulse, or the value and slope
     // records of each down-shift node (`crate::downshift`) when the scene
     // attenuates. Impulse-only data place no pulse and ignore the shift.
     // A render in an AD type carries the shift's derivative even where the
-    // attenuation is 0 (`node_count`'s `differentiated`).
+    // attenuation is 0 (`PulsePlan::nodes`' `differentiated`).
     let nodes = if opts.impulse_only {
         1
     } else {
         let carries_derivatives = std::any::TypeId::of::<T>() != std::any::TypeId::of::<f64>();
-        crate::downshift::node_count(scene, carries_derivatives)
+        plan.pulse.nodes(carries_derivatives)
     };
     let n_buf = if nodes == 1 { 1 } else { 2 * nodes };
-    let (fc, cycles) = (scene.probe.center_frequency_hz, scene.probe.cycles);
-    let taps = (!opts.impulse_only).then(|| {
-        if nodes == 1 {
-            vec![usray_signal::pulse::pulse_taps(fs, fc, cycles)]
-        } else {
-            crate::downshift::node_taps(fs, fc, cycles, nodes)
-        }
-    });
+    let taps = (!opts.impulse_only).then(|| plan.pulse.taps(fs, nodes));
     let total = n_tx * rec_len;
     // One pool for the whole render (transmits in turn, blocks in parallel).
     let (samples, counters) = in_pool(opts.threads, || {
@@ -297,7 +268,7 @@ pub fn render_lifted<T: Real>(
                 .par_iter()
                 .zip(bufs.par_iter_mut())
                 .map(|(els, buf)| {
-                    trace_block_within(st, &s, tx, els.clone(), window, |d| {
+                    trace_block_within(st, s, tx, els.clone(), window, |d| {
                         let e = d.element as usize;
                         let rec = &mut buf[e * n_buf * n_samples..(e + 1) * n_buf * n_samples];
                         if n_buf == 1 {
@@ -350,37 +321,6 @@ pub fn render_lifted<T: Real>(
     (samples, n_samples, stats)
 }
 
-/// The channel-data metadata (CONTRACT §2) of a scene.
-pub fn channel_meta(scene: &Scene) -> ChannelMeta {
-    let (_, t0) = sample_grid(scene);
-    ChannelMeta {
-        format: usray_signal::channels::CHANNELS_FORMAT.to_string(),
-        sampling_frequency_hz: scene.acquisition.sampling_frequency_hz,
-        t0_s: t0,
-        sound_speed_m_s: scene.imaging_sound_speed(),
-        center_frequency_hz: scene.probe.center_frequency_hz,
-        probe: ProbeMeta {
-            kind: scene.probe.kind.clone(),
-            n_elements: scene.probe.n_elements,
-            pitch_m: scene.probe.pitch_m,
-            element_width_m: scene.probe.element_width_m,
-            extra: Default::default(),
-        },
-        transmits: scene
-            .acquisition
-            .angles_deg
-            .iter()
-            .map(|a| TransmitMeta {
-                kind: "plane_wave".into(),
-                angle_rad: a.to_radians(),
-                t0_s: None,
-                extra: Default::default(),
-            })
-            .collect(),
-        extra: Default::default(),
-    }
-}
-
 /// Render a scene's channel data in `f64` (CONTRACT §2 layout).
 ///
 /// ```
@@ -398,10 +338,11 @@ pub fn render(
 ) -> Result<(ChannelData, RenderStats), SceneError> {
     opts.check(scene)?;
     let st = scene.lift_const::<f64>()?;
-    let (samples, n_samples, stats) = render_lifted(scene, &st, opts);
+    let plan = AcquisitionPlan::new(scene);
+    let (samples, n_samples, stats) = render_planned(&plan, &settings(scene, opts), &st, opts);
     Ok((
         ChannelData {
-            meta: channel_meta(scene),
+            meta: plan.channel_meta(),
             n_samples,
             samples,
         },

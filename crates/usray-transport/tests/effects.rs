@@ -323,7 +323,10 @@ fn extreme_attenuation_renders_finite_data() {
     );
     assert!(text.contains("roughness = 0.3"));
     let s = Scene::from_toml_str(&text, "<extreme>", ".").unwrap();
-    assert_eq!(usray_transport::downshift::node_count(&s, false), 10);
+    assert_eq!(
+        usray_transport::AcquisitionPlan::new(&s).pulse.nodes(false),
+        10
+    );
     let (d, stats) = render(&s, &RenderOptions::default()).unwrap();
     assert!(stats.deposits > 0);
     assert!(d.samples.iter().all(|v| v.is_finite()));

@@ -97,7 +97,12 @@ fn forward_and_reverse_modes_agree_with_attenuation() {
     scene
         .set("materials.target.attenuation_db_cm_mhz", 0.7)
         .unwrap();
-    assert!(usray_transport::downshift::node_count(&scene, false) >= 2);
+    assert!(
+        usray_transport::AcquisitionPlan::new(&scene)
+            .pulse
+            .nodes(false)
+            >= 2
+    );
     modes_agree(&scene);
 }
 

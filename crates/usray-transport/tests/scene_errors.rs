@@ -270,7 +270,7 @@ proptest! {
         edited[at] = format!("{key} = {value}");
         match Scene::from_toml_str(&edited.join("\n"), "gen.toml", ".") {
             Ok(s) => {
-                let (n, _) = usray_transport::render::sample_grid(&s);
+                let n = usray_transport::AcquisitionPlan::new(&s).grid.n_samples;
                 let samples = n as f64
                     * s.probe.n_elements as f64
                     * s.acquisition.angles_deg.len() as f64;

@@ -65,7 +65,7 @@ pub fn run(
         let mut line = format!("  {} = {}: ∂L/∂θ = {g:.6e}", s.path, at[j]);
         if eval.demod_fc_part[j] != 0.0 {
             line += &format!(
-                " (of which IQ demodulation f_c, by FD on B: {:.3e})",
+                " (of which the image formation's f_c, with the channel data held: {:.3e})",
                 eval.demod_fc_part[j]
             );
         }

@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::Path;
 use usray_signal::{write_channels, BMode, ChannelData};
-use usray_transport::{render, Scene};
+use usray_transport::{render, AcquisitionPlan, Scene};
 
 /// Renders `scene` into `common.out`.
 pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()> {
@@ -17,10 +17,11 @@ pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()
     let out = OutDir::create(&common.out)?;
     // The beamformer's set-up is checked before the trace, so a bad imaging grid
     // fails at once rather than after it.
+    let plan = AcquisitionPlan::new(&scene);
     BMode::new(
         &scene.imaging_settings(),
-        &render::channel_meta(&scene),
-        render::sample_grid(&scene).0,
+        &plan.channel_meta(),
+        plan.grid.n_samples,
     )
     .context("setting up the beamformer from the scene's [imaging]")?;
     let bar = spinner(common.quiet, &format!("tracing {}", scene_path.display()));

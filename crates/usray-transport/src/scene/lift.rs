@@ -61,6 +61,9 @@ pub struct SceneT<T> {
     /// (`usray_signal::pulse::pulse_bandwidth_hz`; the down-shift's scale,
     /// [`crate::downshift`]).
     pub pulse_bandwidth: T,
+    /// The largest down-shift the tracer places, in `σ_f`, from the values of
+    /// `center_frequency` and `cycles` ([`crate::downshift::max_shift`]).
+    pub max_shift: f64,
     /// Receive main lobe, radians.
     pub main_lobe: T,
     /// Receive cutoff, radians.
@@ -217,6 +220,7 @@ impl Scene {
             center_frequency,
             cycles,
             pulse_bandwidth: usray_signal::pulse::pulse_bandwidth_hz(center_frequency, cycles),
+            max_shift: crate::downshift::max_shift(center_frequency.value(), cycles.value()),
             main_lobe: get("probe.main_lobe_deg") * deg,
             cutoff: get("probe.cutoff_deg") * deg,
             angles: (0..self.acquisition.angles_deg.len())

@@ -675,9 +675,9 @@ pub mod limits {
                 return over(key, format!("{v} m"), format!("{MAX_LENGTH_M} m"));
             }
         }
-        // Samples per record from the record's duration (render.rs), in
-        // floating point: a huge product must not wrap.
-        let duration_s = crate::render::record_duration_s(s);
+        // Samples per record from the record's duration (the acquisition
+        // plan's), in floating point: a huge product must not wrap.
+        let duration_s = crate::plan::record_duration_s(s);
         let per_record = duration_s * a.sampling_frequency_hz;
         let total = per_record * p.n_elements as f64 * a.angles_deg.len() as f64;
         if total.is_nan() || total > MAX_CHANNEL_SAMPLES {
