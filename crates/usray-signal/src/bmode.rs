@@ -25,11 +25,13 @@ use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
+use crate::array::{ArrayGeometry, ArrayKind};
 use crate::channels::{ChannelData, ChannelMeta};
 use crate::das::{linspace, CalibrationGrad, Das};
 use crate::demod::{Analytic, IqDemod};
 use crate::error::{Result, SignalError};
 use crate::gain::gain_table;
+use crate::grid::{PolarGrid, ScanConversion};
 use crate::post;
 
 /// Largest image (`nz · nx`) [`ImagingSettings::grid`] accepts.
@@ -46,6 +48,21 @@ pub enum Demod {
     Iq,
     /// Analytic signal of the RF (FFT Hilbert transform), delayed without rotation.
     Hilbert,
+}
+
+/// Where delay-and-sum forms the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum GridKind {
+    /// `cartesian` for a linear probe, `sector` for phased and convex probes.
+    #[default]
+    Auto,
+    /// Directly on the Cartesian pixels.
+    Cartesian,
+    /// On the probe's polar sector ([`PolarGrid::sector`]), then scan-converted
+    /// (bilinear, on the envelope) to the Cartesian pixels; pixels outside the
+    /// sector are black.
+    Sector,
 }
 
 /// Imaging settings: CONTRACT §3 `[imaging]` plus demodulation choices.
@@ -76,6 +93,9 @@ pub struct ImagingSettings {
     pub filter_order: usize,
     /// Depth-gain compensation applied before demodulation, dB/cm (0 = off).
     pub depth_gain_db_per_cm: f64,
+    /// Beamforming grid: Cartesian, or a sector scan-converted to the Cartesian
+    /// pixels (default: by probe kind).
+    pub grid: GridKind,
 }
 
 impl Default for ImagingSettings {
@@ -91,6 +111,7 @@ impl Default for ImagingSettings {
             iq_bandwidth_fraction: None,
             filter_order: 5,
             depth_gain_db_per_cm: 0.0,
+            grid: GridKind::Auto,
         }
     }
 }
@@ -177,8 +198,13 @@ pub struct BMode {
     /// The settings it was built from.
     pub settings: ImagingSettings,
     /// The delay-and-sum stage (grid, clock, aperture, frames): one coherent
-    /// image per frame.
+    /// image per frame, on the Cartesian pixels or on a polar sector.
     pub das: Das,
+    /// The Cartesian axes of the output image, m (columns, rows).
+    x_m: Vec<f64>,
+    z_m: Vec<f64>,
+    /// Polar sector → Cartesian pixels, when delay-and-sum runs on a sector.
+    scan: Option<ScanConversion>,
     demod: Option<IqDemod>,
     /// Per transmit, the IQ mixing phases of its records ([`IqDemod::mixing`]).
     mixing: Vec<Vec<(f64, f64)>>,
@@ -198,6 +224,9 @@ pub struct Workspace {
     bf_bar: Vec<Complex64>,
     env: Vec<f64>,
     env_bar: Vec<f64>,
+    /// Envelope on the polar sector and its cotangent (sector grids only).
+    env_polar: Vec<f64>,
+    env_polar_bar: Vec<f64>,
     db: Vec<f64>,
     db_bar: Vec<f64>,
     argmax: usize,
@@ -269,7 +298,35 @@ impl BMode {
             }
         }
         let rotate = settings.demod == Demod::Iq;
-        let das = Das::new(meta, n_samples, x, z, c, settings.f_number, rotate)?;
+        let array = ArrayGeometry::from_meta(&meta.probe).map_err(SignalError::Invalid)?;
+        let sector = match settings.grid {
+            GridKind::Auto => array.kind != ArrayKind::Linear,
+            GridKind::Cartesian => false,
+            GridKind::Sector => true,
+        };
+        let (das, scan) = if sector {
+            let polar = PolarGrid::sector(
+                &array,
+                settings.x_range_m,
+                settings.z_range_m,
+                settings.pixel_m,
+            )
+            .map_err(|e| SignalError::Invalid(format!("imaging grid (sector): {e}")))?;
+            let scan = ScanConversion::new(&polar, &x, &z);
+            let das = Das::new_polar(meta, n_samples, polar, c, settings.f_number, rotate)?;
+            (das, Some(scan))
+        } else {
+            let das = Das::new(
+                meta,
+                n_samples,
+                x.clone(),
+                z.clone(),
+                c,
+                settings.f_number,
+                rotate,
+            )?;
+            (das, None)
+        };
         if settings.demod == Demod::Iq && !(1..=20).contains(&settings.filter_order) {
             return Err(SignalError::Invalid(format!(
                 "imaging.filter_order = {} (the IQ low-pass order must be 1–20)",
@@ -315,6 +372,9 @@ impl BMode {
         Ok(BMode {
             settings: settings.clone(),
             das,
+            x_m: x,
+            z_m: z,
+            scan,
             demod,
             mixing,
             analytic,
@@ -325,7 +385,18 @@ impl BMode {
 
     /// Image shape `(nz, nx)`.
     pub fn image_shape(&self) -> (usize, usize) {
-        self.das.image_shape()
+        (self.z_m.len(), self.x_m.len())
+    }
+
+    /// Number of delay-and-sum pixels (Cartesian, or polar on a sector).
+    fn das_pixels(&self) -> usize {
+        let (a, b) = self.das.image_shape();
+        a * b
+    }
+
+    /// The polar sector delay-and-sum runs on, if the image is scan-converted.
+    pub fn sector(&self) -> Option<&PolarGrid> {
+        self.das.polar.as_ref()
     }
 
     /// Shape of the channel data this operator takes:
@@ -358,10 +429,19 @@ impl BMode {
             cx: vec![zero; n],
             cx_bar: Vec::new(),
             scratch: Vec::new(),
-            bf: vec![zero; m * self.das.n_frames],
+            bf: vec![zero; self.das.out_len()],
             bf_bar: Vec::new(),
             env: vec![0.0; m],
             env_bar: Vec::new(),
+            env_polar: vec![
+                0.0;
+                if self.scan.is_some() {
+                    self.das_pixels()
+                } else {
+                    0
+                }
+            ],
+            env_polar_bar: Vec::new(),
             db: vec![0.0; m],
             db_bar: Vec::new(),
             argmax: 0,
@@ -373,12 +453,13 @@ impl BMode {
     /// (`usray beamform`) never pays for them.
     fn vjp_buffers(&self, ws: &mut Workspace) {
         let (nz, nx) = self.image_shape();
-        let (n, m, f) = (self.das.data_len(), nz * nx, self.das.n_frames);
+        let (n, m) = (self.das.data_len(), nz * nx);
         let zero = Complex64::new(0.0, 0.0);
         ws.cx_bar.resize(n, zero);
         ws.scratch.resize(n, zero);
-        ws.bf_bar.resize(m * f, zero);
+        ws.bf_bar.resize(self.das.out_len(), zero);
         ws.env_bar.resize(m, 0.0);
+        ws.env_polar_bar.resize(ws.env_polar.len(), 0.0);
         ws.db_bar.resize(m, 0.0);
     }
 
@@ -386,13 +467,20 @@ impl BMode {
     fn check_workspace(&self, ws: &Workspace) -> Result<()> {
         let (nz, nx) = self.image_shape();
         let (n, m, f) = (self.das.data_len(), nz * nx, self.das.n_frames);
+        let polar = if self.scan.is_some() {
+            self.das_pixels()
+        } else {
+            0
+        };
         // The VJP's buffers are empty until its first call.
         let vjp_ok = |len: usize, want: usize| len == 0 || len == want;
         let ok = ws.cx.len() == n
             && vjp_ok(ws.cx_bar.len(), n)
             && vjp_ok(ws.scratch.len(), n)
-            && ws.bf.len() == m * f
-            && vjp_ok(ws.bf_bar.len(), m * f)
+            && ws.bf.len() == self.das.out_len()
+            && vjp_ok(ws.bf_bar.len(), self.das.out_len())
+            && ws.env_polar.len() == polar
+            && vjp_ok(ws.env_polar_bar.len(), polar)
             && [&ws.env, &ws.db].iter().all(|v| v.len() == m)
             && [&ws.env_bar, &ws.db_bar].iter().all(|v| vjp_ok(v.len(), m));
         if ok {
@@ -462,8 +550,15 @@ impl BMode {
         let (nz, nx) = self.image_shape();
         let npix = nz * nx;
         self.das.forward(&ws.cx, &mut ws.bf);
-        // 4. envelope per frame, mean over frames, log, clip.
-        self.mean_envelope(ws);
+        // 4. envelope per frame, mean over frames (scan-converted from a
+        //    sector), log, clip.
+        match &self.scan {
+            None => self.mean_envelope(&ws.bf, &mut ws.env),
+            Some(sc) => {
+                self.mean_envelope(&ws.bf, &mut ws.env_polar);
+                sc.forward(&ws.env_polar, &mut ws.env);
+            }
+        }
         ws.argmax = post::log_compress(&ws.env, &mut ws.db);
         let mut data = vec![0.0; npix];
         post::clip_dynamic_range(&ws.db, self.settings.dynamic_range_db, &mut data);
@@ -471,22 +566,21 @@ impl BMode {
         Ok(Image {
             nz,
             nx,
-            x_m: self.das.x_m.clone(),
-            z_m: self.das.z_m.clone(),
+            x_m: self.x_m.clone(),
+            z_m: self.z_m.clone(),
             data,
         })
     }
 
     /// `env = (1/F) Σ_f |bf_f|` (for one frame exactly `|bf|`).
-    fn mean_envelope(&self, ws: &mut Workspace) {
+    fn mean_envelope(&self, bf: &[Complex64], env: &mut [f64]) {
         let nf = self.das.n_frames;
         if nf == 1 {
-            post::envelope(&ws.bf, &mut ws.env);
+            post::envelope(bf, env);
         } else {
             let inv = 1.0 / nf as f64;
-            ws.env
-                .par_iter_mut()
-                .zip(ws.bf.par_chunks(nf))
+            env.par_iter_mut()
+                .zip(bf.par_chunks(nf))
                 .for_each(|(e, u)| *e = u.iter().map(|v| v.norm()).sum::<f64>() * inv);
         }
     }
@@ -515,16 +609,23 @@ impl BMode {
             &mut ws.db_bar,
         );
         post::log_compress_vjp(&ws.env, ws.argmax, &ws.db_bar, &mut ws.env_bar);
+        let env_bar: &[f64] = match &self.scan {
+            None => &ws.env_bar,
+            Some(sc) => {
+                sc.vjp(&ws.env_bar, &mut ws.env_polar_bar);
+                &ws.env_polar_bar
+            }
+        };
         let nf = self.das.n_frames;
         if nf == 1 {
-            post::envelope_vjp(&ws.bf, &ws.env_bar, &mut ws.bf_bar);
+            post::envelope_vjp(&ws.bf, env_bar, &mut ws.bf_bar);
         } else {
             // E = (1/F) Σ_f |u_f|  ⇒  ū_f = (Ē/F)·u_f/|u_f|.
             let inv = 1.0 / nf as f64;
             ws.bf_bar
                 .par_chunks_mut(nf)
                 .zip(ws.bf.par_chunks(nf))
-                .zip(&ws.env_bar)
+                .zip(env_bar)
                 .for_each(|((ub, u), &g)| {
                     for (b, v) in ub.iter_mut().zip(u) {
                         let n = v.norm();

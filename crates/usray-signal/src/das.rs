@@ -34,18 +34,28 @@
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
 
+use crate::array::{ArrayGeometry, ArrayKind, Element};
 use crate::channels::ChannelMeta;
 use crate::error::{Result, SignalError};
+use crate::grid::PolarGrid;
+use crate::transmit::TransmitWave;
 
 const TAU: f64 = 2.0 * core::f64::consts::PI;
 
 /// A delay-and-sum configuration: pixel grid, array, clock and aperture.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Das {
-    /// Lateral pixel positions, m (image columns).
+    /// Lateral pixel positions, m (image columns); empty on a polar grid.
     pub x_m: Vec<f64>,
-    /// Depth pixel positions, m (image rows).
+    /// Depth pixel positions, m (image rows); empty on a polar grid.
     pub z_m: Vec<f64>,
+    /// The polar pixel grid (rows = radii, columns = angles) when the image is
+    /// formed on a sector rather than on `x_m` × `z_m`.
+    pub polar: Option<PolarGrid>,
+    /// Array kind (element positions: [`crate::array`]).
+    pub kind: ArrayKind,
+    /// Radius of curvature of a convex array, m (∞ for flat arrays).
+    pub radius_m: f64,
     /// Number of elements.
     pub n_elements: usize,
     /// Element pitch, m.
@@ -56,8 +66,8 @@ pub struct Das {
     pub fs_hz: f64,
     /// Centre (demodulation) frequency, Hz; used for the phase rotation.
     pub fc_hz: f64,
-    /// Per transmit: steering angle, rad.
-    pub angles_rad: Vec<f64>,
+    /// Per transmit: the wave and its time model ([`crate::transmit`]).
+    pub waves: Vec<TransmitWave<f64>>,
     /// Per transmit: time of sample 0, s (CONTRACT §1 clock).
     pub t0_s: Vec<f64>,
     /// Samples per record.
@@ -223,6 +233,41 @@ impl Das {
         f_number: f64,
         rotate: bool,
     ) -> Result<Das> {
+        if x_m.is_empty() || z_m.is_empty() {
+            return Err(SignalError::Invalid("empty pixel grid".into()));
+        }
+        Das::build(meta, n_samples, (x_m, z_m, None), c, f_number, rotate)
+    }
+
+    /// A beamformer like [`Das::new`] on the polar grid `grid` (sector imaging,
+    /// [`crate::grid`]): the output's rows are `grid.r_m`, its columns
+    /// `grid.theta_rad`.
+    pub fn new_polar(
+        meta: &ChannelMeta,
+        n_samples: usize,
+        grid: PolarGrid,
+        c: f64,
+        f_number: f64,
+        rotate: bool,
+    ) -> Result<Das> {
+        Das::build(
+            meta,
+            n_samples,
+            (Vec::new(), Vec::new(), Some(grid)),
+            c,
+            f_number,
+            rotate,
+        )
+    }
+
+    fn build(
+        meta: &ChannelMeta,
+        n_samples: usize,
+        (x_m, z_m, polar): (Vec<f64>, Vec<f64>, Option<PolarGrid>),
+        c: f64,
+        f_number: f64,
+        rotate: bool,
+    ) -> Result<Das> {
         if !(c.is_finite() && c > 0.0) {
             return Err(SignalError::Invalid(format!(
                 "beamforming sound speed {c} m/s"
@@ -236,9 +281,14 @@ impl Das {
         if meta.probe.n_elements == 0 {
             return Err(SignalError::Invalid("probe with 0 elements".into()));
         }
-        if x_m.is_empty() || z_m.is_empty() {
-            return Err(SignalError::Invalid("empty pixel grid".into()));
-        }
+        let array = ArrayGeometry::from_meta(&meta.probe).map_err(SignalError::Invalid)?;
+        let waves = meta
+            .transmits
+            .iter()
+            .enumerate()
+            .map(|(i, t)| TransmitWave::from_meta(i, t))
+            .collect::<std::result::Result<Vec<_>, String>>()
+            .map_err(SignalError::Invalid)?;
         let nt = meta.transmits.len();
         let groups = meta.frames().map_err(SignalError::Invalid)?;
         let mut frame_of = vec![0; nt];
@@ -250,12 +300,15 @@ impl Das {
         Ok(Das {
             x_m,
             z_m,
+            polar,
+            kind: array.kind,
+            radius_m: array.radius_m,
             n_elements: meta.probe.n_elements,
             pitch_m: meta.probe.pitch_m,
             sound_speed_m_s: c,
             fs_hz: meta.sampling_frequency_hz,
             fc_hz: meta.center_frequency_hz,
-            angles_rad: meta.transmits.iter().map(|t| t.angle_rad).collect(),
+            waves,
             t0_s: (0..nt).map(|i| meta.t0_for(i)).collect(),
             n_samples,
             f_number,
@@ -267,30 +320,80 @@ impl Das {
 
     /// Number of transmits.
     pub fn n_transmits(&self) -> usize {
-        self.angles_rad.len()
+        self.waves.len()
     }
     /// Image size `(nz, nx)`.
     pub fn image_shape(&self) -> (usize, usize) {
-        (self.z_m.len(), self.x_m.len())
+        match &self.polar {
+            Some(g) => g.shape(),
+            None => (self.z_m.len(), self.x_m.len()),
+        }
     }
     /// Output length `nz · nx · n_frames`.
     pub fn out_len(&self) -> usize {
-        self.z_m.len() * self.x_m.len() * self.n_frames
+        let (nz, nx) = self.image_shape();
+        nz * nx * self.n_frames
     }
     /// Number of channel samples `n_transmits · n_elements · n_samples`.
     pub fn data_len(&self) -> usize {
         self.n_transmits() * self.n_elements * self.n_samples
     }
-    /// Element centre `x_e`, m.
+    /// Element centre `x_e` of a flat array, m.
     #[inline]
     pub fn element_x(&self, e: usize) -> f64 {
         (e as f64 - (self.n_elements as f64 - 1.0) / 2.0) * self.pitch_m
     }
 
+    /// The array this beamformer assumes (its current `kind`, `pitch_m`,
+    /// `radius_m`; the element width plays no part in delay-and-sum and is
+    /// reported as the pitch).
+    pub fn array<T: usray_ad::Real>(&self, pitch_m: T) -> ArrayGeometry<T> {
+        ArrayGeometry {
+            kind: self.kind,
+            n_elements: self.n_elements,
+            pitch_m,
+            element_width_m: pitch_m,
+            radius_m: T::from_f64(self.radius_m),
+        }
+    }
+
+    /// Probe-frame position `(x, z)` of pixel (row `iz`, column `ix`), m.
+    #[inline(always)]
+    pub fn pixel(&self, iz: usize, ix: usize) -> [f64; 2] {
+        match &self.polar {
+            Some(g) => g.pixel(iz, ix),
+            None => [self.x_m[ix], self.z_m[iz]],
+        }
+    }
+
+    /// Per transmit, `(sin θ, cos θ)` of a plane wave (unused for other waves).
+    fn plane_trig(&self) -> Vec<(f64, f64)> {
+        self.waves
+            .iter()
+            .map(|w| match w {
+                TransmitWave::PlaneWave { angle_rad } => angle_rad.sin_cos(),
+                _ => (0.0, 0.0),
+            })
+            .collect()
+    }
+
+    /// Arrival time of transmit `t` at `p`, s: [`TransmitWave::arrival_time_s`],
+    /// with a plane wave's sine and cosine taken from `trig` rather than
+    /// recomputed per pixel (the same expression, so the same bits).
+    #[inline(always)]
+    fn tx_time(&self, t: usize, p: [f64; 2], trig: &[(f64, f64)]) -> f64 {
+        match &self.waves[t] {
+            TransmitWave::PlaneWave { .. } => {
+                (p[0] * trig[t].0 + p[1] * trig[t].1) / self.sound_speed_m_s
+            }
+            w => w.arrival_time_s(p, self.sound_speed_m_s),
+        }
+    }
+
     /// `k` if the x grid is uniform with step `h` and `pitch = k·h` (to 1e-12).
     fn lattice_step(&self) -> Option<usize> {
         let nx = self.x_m.len();
-        if nx < 2 {
+        if nx < 2 || self.polar.is_some() || !self.kind.is_flat() {
             return None;
         }
         let (x0, x1) = (self.x_m[0], self.x_m[nx - 1]);
@@ -332,7 +435,7 @@ impl Das {
                 for j in 0..len {
                     let dx =
                         self.x_m[0] + (j as f64 - (k * (ne - 1)) as f64) * h + mid * self.pitch_m;
-                    okr[j] = self.in_aperture(dx, z);
+                    okr[j] = self.in_aperture(dx, z, [0.0, 1.0]);
                     tr[j] = (dx * dx + z * z).sqrt() / c;
                     if self.rotate {
                         let (sn, co) = (w * tr[j]).sin_cos();
@@ -355,6 +458,7 @@ impl Das {
     fn rx(
         &self,
         table: Option<&RxTable>,
+        els: &[Element<f64>],
         iz: usize,
         ix: usize,
         e: usize,
@@ -363,12 +467,13 @@ impl Das {
             let idx = iz * t.len + ix + t.k * (self.n_elements - 1 - e);
             return t.ok[idx].then(|| (t.trx[idx], t.rrx[idx]));
         }
-        let (x, z) = (self.x_m[ix], self.z_m[iz]);
-        let dx = x - self.element_x(e);
-        if !self.in_aperture(dx, z) {
+        let p = self.pixel(iz, ix);
+        let el = &els[e];
+        let (dx, dz) = (p[0] - el.centre_m[0], p[1] - el.centre_m[1]);
+        if !self.in_aperture(dx, dz, el.normal) {
             return None;
         }
-        let trx = (dx * dx + z * z).sqrt() / self.sound_speed_m_s;
+        let trx = (dx * dx + dz * dz).sqrt() / self.sound_speed_m_s;
         let rrx = if self.rotate {
             let (s, co) = (TAU * self.fc_hz * trx).sin_cos();
             Complex64::new(co, s)
@@ -378,9 +483,17 @@ impl Das {
         Some((trx, rrx))
     }
 
+    /// Whether the pixel at `(dx, dz)` from an element with normal `n` lies in
+    /// its receive cone: the angle `α` between `(dx, dz)` and `n` has
+    /// `tan α ≤ 1/(2F)`, i.e. `2F·|(dx, dz) × n| ≤ (dx, dz)·n` (PyMUST `dasmtx`:
+    /// `|x − x_e| ≤ z/(2F)` for a linear array, `|asin(dx/r) − θ_e| ≤
+    /// atan(1/(2F))` for a convex one). For `n = (0, 1)` this is exactly the
+    /// linear rule `2F|dx| ≤ dz`.
     #[inline]
-    fn in_aperture(&self, dx: f64, z: f64) -> bool {
-        self.f_number <= 0.0 || 2.0 * self.f_number * dx.abs() <= z
+    fn in_aperture(&self, dx: f64, dz: f64, n: [f64; 2]) -> bool {
+        let cross = dx * n[1] - dz * n[0];
+        let dot = dx * n[0] + dz * n[1];
+        self.f_number <= 0.0 || 2.0 * self.f_number * cross.abs() <= dot
     }
 
     fn check(&self, data_len: usize, out_len: usize) {
@@ -403,16 +516,12 @@ impl Das {
     /// If the buffer lengths disagree with the configuration (a programming error).
     pub fn forward<S: Sample>(&self, data: &[S], out: &mut [S]) {
         self.check(data.len(), out.len());
-        let nx = self.x_m.len();
+        let nx = self.image_shape().1;
         let nt = self.n_transmits();
-        let (c, fs, ns, ne) = (
-            self.sound_speed_m_s,
-            self.fs_hz,
-            self.n_samples,
-            self.n_elements,
-        );
+        let (fs, ns, ne) = (self.fs_hz, self.n_samples, self.n_elements);
         let w = TAU * self.fc_hz;
-        let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
+        let trig = self.plane_trig();
+        let els = self.array(self.pitch_m).elements();
         let table = self.rx_table();
         let table = table.as_ref();
         let nf = self.n_frames;
@@ -427,11 +536,10 @@ impl Das {
                     rrx: rrx_buf,
                     ok: ok_buf,
                 } = sc;
-                let z = self.z_m[iz];
                 // Step 1: each transmit's delay (from sample 0) and phase along the row.
                 for t in 0..nt {
                     for ix in 0..nx {
-                        let tt = (self.x_m[ix] * trig[t].0 + z * trig[t].1) / c;
+                        let tt = self.tx_time(t, self.pixel(iz, ix), &trig);
                         ttx[t * nx + ix] = tt - self.t0_s[t];
                         if self.rotate {
                             let (s, co) = (w * tt).sin_cos();
@@ -452,7 +560,7 @@ impl Das {
                         }
                         None => {
                             for ix in 0..nx {
-                                let r = self.rx(None, iz, ix, e);
+                                let r = self.rx(None, &els, iz, ix, e);
                                 ok_buf[ix] = r.is_some();
                                 if let Some((t, p)) = r {
                                     trx_buf[ix] = t;
@@ -501,26 +609,21 @@ impl Das {
     pub fn vjp<S: Sample>(&self, out_bar: &[S], data_bar: &mut [S], scratch: &mut [S]) {
         self.check(data_bar.len(), out_bar.len());
         assert_eq!(scratch.len(), self.data_len(), "scratch length");
-        let nx = self.x_m.len();
+        let (nz, nx) = self.image_shape();
         let nt = self.n_transmits();
-        let (c, fs, ns, ne) = (
-            self.sound_speed_m_s,
-            self.fs_hz,
-            self.n_samples,
-            self.n_elements,
-        );
+        let (fs, ns, ne) = (self.fs_hz, self.n_samples, self.n_elements);
         let w = TAU * self.fc_hz;
-        let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
+        let trig = self.plane_trig();
+        let els = self.array(self.pitch_m).elements();
         // Transmit delays and rotations per (transmit, pixel), once per call, so the
         // per-element loop pays one sqrt and one sincos per (pixel, element) like
         // the forward pass.
-        let npix = nx * self.z_m.len();
+        let npix = nx * nz;
         let mut txt = vec![0.0; nt * npix];
         let mut txr = vec![Complex64::new(1.0, 0.0); if self.rotate { nt * npix } else { 0 }];
         txt.par_chunks_mut(npix).enumerate().for_each(|(t, tab)| {
             for (p, v) in tab.iter_mut().enumerate() {
-                let (x, z) = (self.x_m[p % nx], self.z_m[p / nx]);
-                *v = (x * trig[t].0 + z * trig[t].1) / c;
+                *v = self.tx_time(t, self.pixel(p / nx, p % nx), &trig);
             }
         });
         if self.rotate {
@@ -539,9 +642,9 @@ impl Das {
             || vec![S::zero(); nf],
             |grx, (e, blk)| {
                 blk.fill(S::zero());
-                for iz in 0..self.z_m.len() {
+                for iz in 0..nz {
                     for ix in 0..nx {
-                        let Some((trx, rrx)) = self.rx(table, iz, ix, e) else {
+                        let Some((trx, rrx)) = self.rx(table, &els, iz, ix, e) else {
                             continue;
                         };
                         let p = iz * nx + ix;
@@ -583,14 +686,19 @@ impl Das {
     /// [`crate::demod`]) and the data the forward pass used. Differentiates
     /// `τ(c, pitch)` through the linear interpolation (`∂P/∂s = P[i+1] − P[i]`) and
     /// the rotation (`∂ exp(iωτ)/∂τ = iω exp(iωτ)`):
-    /// `∂τ/∂c = −τ/c`, `∂τ/∂pitch = −(x − x_e)/(c·r)·(e − (N−1)/2)`. The F-number
-    /// aperture mask is held fixed (a discontinuity without a derivative).
+    /// `∂τ/∂c = −τ/c` (every transmit model and the receive path are a length
+    /// over `c`), `∂τ/∂pitch = −(p − x_e)·(∂x_e/∂pitch)/(c·r)` with the element
+    /// centre's derivative `∂x_e/∂pitch` taken by dual numbers through
+    /// [`ArrayGeometry::element`] (for a flat array `(e − (N−1)/2, 0)`; the
+    /// transmit models do not depend on the pitch: plane waves pass the origin,
+    /// virtual sources and foci are given as points). The F-number aperture mask
+    /// is held fixed (a discontinuity without a derivative).
     ///
     /// # Panics
     /// If the buffer lengths disagree with the configuration.
     pub fn calibration_vjp<S: Sample>(&self, data: &[S], out_bar: &[S]) -> CalibrationGrad {
         self.check(data.len(), out_bar.len());
-        let nx = self.x_m.len();
+        let (nz, nx) = self.image_shape();
         let nt = self.n_transmits();
         let (c, fs, ns, ne) = (
             self.sound_speed_m_s,
@@ -599,8 +707,14 @@ impl Das {
             self.n_elements,
         );
         let w = TAU * self.fc_hz;
-        let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
-        let mid = (ne as f64 - 1.0) / 2.0;
+        let trig = self.plane_trig();
+        let els = self.array(self.pitch_m).elements();
+        let del: Vec<[f64; 2]> = self
+            .array(usray_ad::Dual::<1>::variable(self.pitch_m, 0))
+            .elements()
+            .iter()
+            .map(|el| [el.centre_m[0].eps[0], el.centre_m[1].eps[0]])
+            .collect();
         // The delays and phases of the forward pass (receive lattice when it
         // applies, transmit part once per pixel), so that this differentiates the
         // forward pass's own sample positions and rotations; the rotation
@@ -609,7 +723,7 @@ impl Das {
         // per (pixel, element, transmit).
         let table = self.rx_table();
         let table = table.as_ref();
-        let rows: Vec<(f64, f64)> = (0..self.z_m.len())
+        let rows: Vec<(f64, f64)> = (0..nz)
             .into_par_iter()
             .map_init(
                 || {
@@ -620,13 +734,13 @@ impl Das {
                     )
                 },
                 |(ttr, ttx, rtx), iz| {
-                    let z = self.z_m[iz];
                     let (mut gc, mut gp) = (0.0, 0.0);
-                    for (ix, &x) in self.x_m.iter().enumerate() {
+                    for ix in 0..nx {
+                        let px = self.pixel(iz, ix);
                         let p = (iz * nx + ix) * self.n_frames;
                         for t in 0..nt {
                             // Transmit time, its offset from sample 0 and its phase.
-                            let tt = (x * trig[t].0 + z * trig[t].1) / c;
+                            let tt = self.tx_time(t, px, &trig);
                             ttr[t] = tt;
                             ttx[t] = tt - self.t0_s[t];
                             if self.rotate {
@@ -635,12 +749,13 @@ impl Das {
                             }
                         }
                         for e in 0..ne {
-                            let Some((trx, rrx)) = self.rx(table, iz, ix, e) else {
+                            let Some((trx, rrx)) = self.rx(table, &els, iz, ix, e) else {
                                 continue;
                             };
-                            let dx = x - self.element_x(e);
-                            let r = (dx * dx + z * z).sqrt();
-                            let dtau_dp = -dx / (c * r.max(1e-300)) * (e as f64 - mid);
+                            let dx = px[0] - els[e].centre_m[0];
+                            let dz = px[1] - els[e].centre_m[1];
+                            let cr = c * (dx * dx + dz * dz).sqrt().max(1e-300);
+                            let dtau_dp = -dx / cr * del[e][0] + -dz / cr * del[e][1];
                             for t in 0..nt {
                                 let s = (ttx[t] + trx) * fs;
                                 let Some((i, fw)) = locate(s, ns) else {

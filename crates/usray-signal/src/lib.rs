@@ -8,6 +8,8 @@
 //!
 //! | module | operator |
 //! |---|---|
+//! | [`array`] | element centres and normals of linear, phased and convex arrays |
+//! | [`transmit`] | plane, diverging and focused waves: delay laws and arrival times |
 //! | [`pulse`] | transmit pulse `s(t)` (paper eq. `axial_sig`), its derivative, convolution |
 //! | [`gain`] | depth-gain (time-gain) compensation |
 //! | [`filter`] | Butterworth low-/band-pass, zero-phase forward–backward |
@@ -77,6 +79,7 @@
 //! let g = b.vjp(&mut ws, &vec![1.0; img.data.len()]).unwrap();
 //! assert_eq!(g.len(), ch.samples.len());
 //! ```
+pub mod array;
 pub mod bmode;
 pub mod channels;
 pub mod das;
@@ -84,6 +87,7 @@ pub mod demod;
 pub mod error;
 pub mod filter;
 pub mod gain;
+pub mod grid;
 mod h5;
 pub mod import;
 pub mod io;
@@ -91,6 +95,7 @@ pub mod mat;
 mod mat73;
 pub mod post;
 pub mod pulse;
+pub mod transmit;
 pub mod uff;
 
 pub use bmode::{BMode, Demod, Image, ImagingSettings, Workspace};
