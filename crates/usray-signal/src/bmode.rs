@@ -127,6 +127,43 @@ impl ImagingSettings {
         }
     }
 
+    /// Settings that show everything `meta`'s records (`n_samples` each) can
+    /// image, for beamforming without a scene: depth from 0 to the deepest
+    /// echo the longest record holds (`c·t_last/2` from the probe-frame origin,
+    /// `t_last` the time of its last sample on CONTRACT §1's clock); laterally
+    /// the aperture of a linear probe, the ±45° sector of a phased one, the arc's
+    /// angular span of a convex one (grid: [`GridKind::Auto`]); pixels of a
+    /// quarter wavelength at `f_c`, coarsened so no axis exceeds 1000 pixels.
+    /// Other fields keep their defaults.
+    pub fn for_channels(meta: &ChannelMeta, n_samples: usize) -> Result<Self> {
+        let array = ArrayGeometry::from_meta(&meta.probe).map_err(SignalError::Invalid)?;
+        let c = meta.sound_speed_m_s;
+        let t_last = (0..meta.transmits.len())
+            .map(|t| {
+                meta.t0_for(t) + n_samples.saturating_sub(1) as f64 / meta.sampling_frequency_hz
+            })
+            .fold(f64::NEG_INFINITY, f64::max);
+        let depth = c * t_last / 2.0;
+        if !(depth.is_finite() && depth > 0.0) {
+            return Err(SignalError::Invalid(format!(
+                "the records end at t = {t_last} s: nothing in front of the probe to image"
+            )));
+        }
+        let half = match array.kind {
+            ArrayKind::Linear => (array.n_elements as f64 - 1.0) * array.pitch_m / 2.0,
+            ArrayKind::Phased => depth * std::f64::consts::FRAC_PI_4.sin(),
+            ArrayKind::Convex => {
+                let h = array.apothem_m();
+                let span = array.angular_pitch_rad() * (array.n_elements as f64 - 1.0) / 2.0;
+                (depth + h) * span.sin()
+            }
+        }
+        .max(array.pitch_m);
+        let lambda = c / meta.center_frequency_hz;
+        let pixel = (lambda / 4.0).max((2.0 * half).max(depth) / 999.0);
+        Ok(ImagingSettings::new([-half, half], [0.0, depth], pixel))
+    }
+
     /// The pixel grid `(x_m, z_m)`.
     pub fn grid(&self) -> Result<(Vec<f64>, Vec<f64>)> {
         let axis = |name: &str, r: [f64; 2]| -> Result<Vec<f64>> {
