@@ -1,27 +1,33 @@
-//! Plane-wave delay-and-sum (paper eq. `das`) and its adjoint, the back-projection
-//! (paper eq. `das_adjoint`), on RF or complex (IQ / analytic) channel data.
+//! Delay-and-sum (paper eq. `das`) and its adjoint, the back-projection (paper eq.
+//! `das_adjoint`), on RF or complex (IQ / analytic) channel data, for any array of
+//! [`crate::array`] and any transmit of [`crate::transmit`].
 //!
-//! For pixel `(x, z)`, transmit `θ` (CONTRACT §1 clock) and element `e` at
-//! `x_e = (e − (N−1)/2)·pitch` on `z = 0`, the two-way time (s) is
+//! For pixel `p = (x, z)`, transmit `t` and element `e` centred at `x_e`
+//! ([`ArrayGeometry::element`]), the two-way time (s) on the CONTRACT §1 clock is
 //!
-//! `τ = (x sin θ + z cos θ)/c + √((x − x_e)² + z²)/c`
+//! `τ = t_t(p) + ‖p − x_e‖/c`
 //!
-//! (Montaldo et al., "Coherent plane-wave compounding for very fast ultrasonography",
-//! IEEE TUFFC 56(3), 2009, with the transmit origin at the
-//! array centre). The sample position is `s = (τ − t0_θ)·f_s` with `t0_θ` the time of
+//! with `t_t` the transmit's arrival time ([`TransmitWave::arrival_time_s`]); for
+//! a plane wave on a flat array `τ = (x sin θ + z cos θ)/c + √((x − x_e)² + z²)/c`
+//! (Montaldo et al., "Coherent plane-wave compounding for very fast
+//! ultrasonography", IEEE TUFFC 56(3), 2009, with the transmit origin at the
+//! array centre). The sample position is `s = (τ − t0_t)·f_s` with `t0_t` the time of
 //! sample 0 of that transmit; the record is read by linear interpolation
 //! `P(s) = (1 − w)·P[i] + w·P[i+1]`, `i = ⌊s⌋`, `w = s − i`; positions with `s < 0`
 //! or `i + 1 ≥ n_samples` contribute 0. On baseband IQ data the interpolated value is
 //! multiplied by `exp(+2πi f_c τ)` to restore the carrier phase (Szabo, "Diagnostic
 //! Ultrasound Imaging: Inside Out", quadrature sampling; as PyMUST `dasmtx`). Receive apodisation by F-number
-//! `F`: element `e` contributes with weight 1 if `|x − x_e| ≤ z/(2F)`, else 0
-//! (rectangular; `F = 0` = full aperture). Transmits are summed coherently within
+//! `F`: element `e` contributes with weight 1 if `p` lies in the cone of half-angle
+//! `atan(1/(2F))` about the element's normal (for a flat array `|x − x_e| ≤
+//! z/(2F)`; PyMUST `dasmtx`), else 0 (rectangular; `F = 0` = full aperture). The
+//! pixels are the Cartesian grid `x_m` × `z_m` or a polar sector
+//! ([`crate::grid::PolarGrid`], [`Das::new_polar`]). Transmits are summed coherently within
 //! each frame (the transmits' `frame` keys, [`ChannelMeta::frames`]); the output
 //! holds one coherent image per frame, pixel-major `[nz, nx, n_frames]` (for
 //! single-frame data simply `[nz, nx]`).
 //!
-//! Speed: when the `x` grid is uniform and the pitch is an integer multiple of its
-//! step, the receive distance and phase are tabulated once per distinct `x − x_e`
+//! Speed: for a flat array on a Cartesian grid uniform in `x` whose step divides
+//! the pitch, the receive distance and phase are tabulated once per distinct `x − x_e`
 //! per row (same formula, same values up to rounding). The calibration gradients
 //! use the same delays and phases as the forward pass (the phase of a delay as the
 //! product of its transmit and receive phases).
@@ -31,8 +37,15 @@
 //! a fixed order; the calibration gradients reduce per-row partial sums in row order.
 //! Results are therefore bit-identical for any number of threads.
 
+mod lattice;
+mod sample;
+
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
+
+use lattice::RxTable;
+use sample::locate;
+pub use sample::{linspace, Sample};
 
 use crate::array::{ArrayGeometry, ArrayKind, Element};
 use crate::channels::ChannelMeta;
@@ -91,108 +104,6 @@ pub struct CalibrationGrad {
     pub d_sound_speed: f64,
     /// `∂L/∂pitch`, per m.
     pub d_pitch: f64,
-}
-
-/// A real or complex channel sample (RF: `f64`, IQ/analytic: `Complex64`).
-pub trait Sample:
-    Copy
-    + Send
-    + Sync
-    + core::ops::Add<Output = Self>
-    + core::ops::AddAssign
-    + core::ops::Sub<Output = Self>
-    + 'static
-{
-    /// Zero.
-    fn zero() -> Self;
-    /// `self · k`.
-    fn scale(self, k: f64) -> Self;
-    /// `self · r` (for `f64`, `r` is always 1: RF is never rotated).
-    fn rot(self, r: Complex64) -> Self;
-    /// `self · conj(r)`.
-    fn rot_conj(self, r: Complex64) -> Self;
-    /// `Re(conj(g)·self)`: the real inner product of two samples.
-    fn dot(self, g: Self) -> f64;
-    /// `self · i` (only used with rotation, i.e. complex).
-    fn times_i(self) -> Self;
-}
-
-impl Sample for f64 {
-    fn zero() -> Self {
-        0.0
-    }
-    fn scale(self, k: f64) -> Self {
-        self * k
-    }
-    fn rot(self, _r: Complex64) -> Self {
-        self
-    }
-    fn rot_conj(self, _r: Complex64) -> Self {
-        self
-    }
-    fn dot(self, g: Self) -> f64 {
-        self * g
-    }
-    fn times_i(self) -> Self {
-        0.0
-    }
-}
-
-impl Sample for Complex64 {
-    fn zero() -> Self {
-        Complex64::new(0.0, 0.0)
-    }
-    fn scale(self, k: f64) -> Self {
-        self * k
-    }
-    fn rot(self, r: Complex64) -> Self {
-        self * r
-    }
-    fn rot_conj(self, r: Complex64) -> Self {
-        self * r.conj()
-    }
-    fn dot(self, g: Self) -> f64 {
-        self.re * g.re + self.im * g.im
-    }
-    fn times_i(self) -> Self {
-        Complex64::new(-self.im, self.re)
-    }
-}
-
-/// Integer sample `i` and fraction `w` of position `s`, if both `i` and `i + 1` lie
-/// in a record of `ns` samples, i.e. `0 ≤ s < ns − 1` (NaN, negative and too large
-/// positions give `None`; the bound is tested in floating point, since `as usize`
-/// saturates a huge position — a sidecar's `sampling_frequency_hz = 1e300`).
-#[inline]
-fn locate(s: f64, ns: usize) -> Option<(usize, f64)> {
-    if !(s >= 0.0 && s < ns as f64 - 1.0) {
-        return None;
-    }
-    let i = s as usize;
-    Some((i, s - i as f64))
-}
-
-/// `n` points from `a` to `b` inclusive (`n = 1` gives `a`).
-pub fn linspace(a: f64, b: f64, n: usize) -> Vec<f64> {
-    if n == 1 {
-        return vec![a];
-    }
-    (0..n)
-        .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
-        .collect()
-}
-
-/// Receive delays and phases on a lattice: when the pixel grid is uniform in `x`
-/// and the pitch is an integer multiple `k` of its step `h` (e.g. 0.1 mm pixels,
-/// 0.3 mm pitch), `x − x_e` only takes `nx + k(N−1)` distinct values per row, so
-/// the square root and the phase are computed once per value rather than once per
-/// (pixel, element). Index `j = ix + k(N − 1 − e)`.
-struct RxTable {
-    k: usize,
-    len: usize,
-    trx: Vec<f64>,
-    rrx: Vec<Complex64>,
-    ok: Vec<bool>,
 }
 
 /// One image row's working buffers for [`Das::forward`]: per transmit and
@@ -388,68 +299,6 @@ impl Das {
             }
             w => w.arrival_time_s(p, self.sound_speed_m_s),
         }
-    }
-
-    /// `k` if the x grid is uniform with step `h` and `pitch = k·h` (to 1e-12).
-    fn lattice_step(&self) -> Option<usize> {
-        let nx = self.x_m.len();
-        if nx < 2 || self.polar.is_some() || !self.kind.is_flat() {
-            return None;
-        }
-        let (x0, x1) = (self.x_m[0], self.x_m[nx - 1]);
-        let h = (x1 - x0) / (nx - 1) as f64;
-        if h.is_nan() || h <= 0.0 {
-            return None;
-        }
-        let scale = x0.abs().max(x1.abs()).max(h);
-        if self
-            .x_m
-            .iter()
-            .enumerate()
-            .any(|(i, &x)| (x - (x0 + i as f64 * h)).abs() > 1e-12 * scale)
-        {
-            return None;
-        }
-        let r = self.pitch_m / h;
-        let k = r.round();
-        ((1.0..=64.0).contains(&k) && (r - k).abs() <= 1e-12 * r).then_some(k as usize)
-    }
-
-    fn rx_table(&self) -> Option<RxTable> {
-        let k = self.lattice_step()?;
-        let (nx, ne) = (self.x_m.len(), self.n_elements);
-        let len = nx + k * (ne - 1);
-        let h = (self.x_m[nx - 1] - self.x_m[0]) / (nx - 1) as f64;
-        let mid = (ne as f64 - 1.0) / 2.0;
-        let (c, w) = (self.sound_speed_m_s, TAU * self.fc_hz);
-        let n = len * self.z_m.len();
-        let mut trx = vec![0.0; n];
-        let mut rrx = vec![Complex64::new(1.0, 0.0); n];
-        let mut ok = vec![false; n];
-        trx.par_chunks_mut(len)
-            .zip(rrx.par_chunks_mut(len))
-            .zip(ok.par_chunks_mut(len))
-            .enumerate()
-            .for_each(|(iz, ((tr, rr), okr))| {
-                let z = self.z_m[iz];
-                for j in 0..len {
-                    let dx =
-                        self.x_m[0] + (j as f64 - (k * (ne - 1)) as f64) * h + mid * self.pitch_m;
-                    okr[j] = self.in_aperture(dx, z, [0.0, 1.0]);
-                    tr[j] = (dx * dx + z * z).sqrt() / c;
-                    if self.rotate {
-                        let (sn, co) = (w * tr[j]).sin_cos();
-                        rr[j] = Complex64::new(co, sn);
-                    }
-                }
-            });
-        Some(RxTable {
-            k,
-            len,
-            trx,
-            rrx,
-            ok,
-        })
     }
 
     /// Receive time and phase for (pixel `iz, ix`, element `e`), or `None` outside
@@ -787,20 +636,6 @@ impl Das {
         CalibrationGrad {
             d_sound_speed: gc,
             d_pitch: gp,
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::locate;
-
-    #[test]
-    fn locate_refuses_positions_outside_the_record() {
-        assert_eq!(locate(2.5, 4), Some((2, 0.5)));
-        assert_eq!(locate(0.0, 2), Some((0, 0.0)));
-        for s in [f64::NAN, -0.5, 3.0, 3.5, 1e300, f64::INFINITY, -1e300] {
-            assert_eq!(locate(s, 4), None, "{s}");
         }
     }
 }

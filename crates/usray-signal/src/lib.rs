@@ -8,13 +8,15 @@
 //!
 //! | module | operator |
 //! |---|---|
-//! | [`array`] | element centres and normals of linear, phased and convex arrays |
+//! | [`array`](mod@array) | element centres and normals of linear, phased and convex arrays |
 //! | [`transmit`] | plane, diverging and focused waves: delay laws and arrival times |
 //! | [`pulse`] | transmit pulse `s(t)` (paper eq. `axial_sig`), its derivative, convolution |
 //! | [`gain`] | depth-gain (time-gain) compensation |
 //! | [`filter`] | Butterworth low-/band-pass, zero-phase forward–backward |
 //! | [`demod`] | IQ demodulation at `f_c`, Hilbert analytic signal |
-//! | [`das`] | plane-wave delay-and-sum (paper eq. `das`), back-projection (eq. `das_adjoint`), calibration gradients (`c`, pitch) |
+//! | [`das`] | delay-and-sum (paper eq. `das`) for any array and transmit, back-projection (eq. `das_adjoint`), calibration gradients (`c`, pitch) |
+//! | [`grid`] | polar sector grids of phased and convex probes, bilinear scan conversion and its VJP |
+//! | [`imaging`] | imaging settings: grid, aperture, dynamic range, demodulation |
 //! | [`post`] | envelope, `20 log10`, normalisation, dynamic-range clip |
 //! | [`bmode`] | the composed operator `B` with one forward and one VJP call |
 //! | [`io`] | channel data and B-mode files, [`write_atomic`] |
@@ -89,6 +91,7 @@ pub mod filter;
 pub mod gain;
 pub mod grid;
 mod h5;
+pub mod imaging;
 pub mod import;
 pub mod io;
 pub mod mat;

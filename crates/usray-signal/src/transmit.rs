@@ -179,9 +179,8 @@ mod tests {
         let u = [0.6, 0.8];
         let t = |s: f64| w.arrival_time_s([v[0] + s * u[0], v[1] + s * u[1]], C);
         assert!((t(0.05) - t(0.03) - 0.02 / C).abs() < 1e-18);
-        // Through the focus along the axis: time falls before it... no: the
-        // wavefront reaches points nearer the array first, and grows at 1/c
-        // through the focus.
+        // Along the beam axis, before and beyond the focus, the wavefront
+        // moves at c.
         let f = [5e-3, 40e-3];
         let w = TransmitWave::Focused { focus_m: f };
         let n = (f[0] * f[0] + f[1] * f[1]).sqrt();
