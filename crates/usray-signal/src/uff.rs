@@ -99,8 +99,10 @@ pub fn import_uff_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
 /// Samples are written as `single`, the other numbers as `double`.
 ///
 /// # Errors
-/// Channel data that fail [`ChannelData::validate`] or whose frames do not form a
-/// regular grid; a write that fails (the error names `path`).
+/// Channel data that fail [`ChannelData::validate`], whose frames do not form a
+/// regular grid, whose probe is convex or whose transmits are not all plane
+/// waves (a phased probe is written as the linear array it is geometrically);
+/// a write that fails (the error names `path`).
 pub fn export_uff(path: impl AsRef<Path>, ch: &ChannelData) -> Result<()> {
     let path = path.as_ref();
     ch.validate().map_err(SignalError::Invalid)?;
@@ -489,6 +491,22 @@ struct FrameGrid {
 /// with them, frames `0, 1, …` in order, each repeating frame 0's angles and
 /// times of sample 0.
 fn frame_grid(meta: &ChannelMeta) -> std::result::Result<FrameGrid, String> {
+    // Only what this writer can say: a flat array (a phased one is written as
+    // the linear array it is geometrically) and plane waves.
+    if meta.probe.kind == "convex" {
+        return Err("`probe.kind` is \"convex\": the UFF writer holds linear arrays only".into());
+    }
+    if let Some((i, t)) = meta
+        .transmits
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.kind != "plane_wave")
+    {
+        return Err(format!(
+            "transmits[{i}].kind is {:?}: the UFF writer holds plane waves only",
+            t.kind
+        ));
+    }
     let n = meta.transmits.len();
     if !meta
         .transmits

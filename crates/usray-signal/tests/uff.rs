@@ -202,6 +202,37 @@ fn irregular_frames_are_not_written() {
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
+/// Convex probes and non-plane transmits are refused by the writer (it would
+/// otherwise write a linear array or a plane wave at angle 0), naming the key.
+#[test]
+fn convex_probes_and_circular_waves_are_not_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut convex = small();
+    convex.meta.probe.kind = "convex".into();
+    convex
+        .meta
+        .probe
+        .extra
+        .insert("radius_m".into(), 0.02.into());
+    let mut diverging = small();
+    diverging.meta.transmits[0].kind = "diverging".into();
+    diverging.meta.transmits[0]
+        .extra
+        .insert("virtual_source_m".into(), serde_json::json!([0.0, -0.01]));
+    for (ch, key) in [(convex, "probe.kind"), (diverging, "transmits[0].kind")] {
+        let p = dir.path().join("x.uff");
+        let e = export_uff(&p, &ch).unwrap_err().to_string();
+        assert!(e.contains(key) && e.contains("x.uff"), "{e}");
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    // A phased probe is a linear array geometrically: written, read back as linear.
+    let mut phased = small();
+    phased.meta.probe.kind = "phased".into();
+    let p = dir.path().join("phased.uff");
+    export_uff(&p, &phased).unwrap();
+    assert_eq!(import_uff(&p).unwrap().meta.probe.kind, "linear");
+}
+
 /// An option a UFF file's import does not use (the file states the clock,
 /// angles and layout) is refused naming the flag, not silently ignored.
 #[test]
