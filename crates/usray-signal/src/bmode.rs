@@ -568,7 +568,9 @@ impl BMode {
 
     /// Gradient of `L` with respect to the beamforming sound speed and pitch at the
     /// last forward point, given `∂L/∂I` (uses the same chain down to the
-    /// beamformed images, then [`Das::calibration_vjp`]).
+    /// beamformed images, then [`Das::calibration_vjp`]). On a sector the polar
+    /// pixels are held where they are: the derivative does not include the
+    /// sector's own motion with the pitch (a convex array's arc centre moves).
     ///
     /// # Errors
     /// As [`BMode::vjp`].

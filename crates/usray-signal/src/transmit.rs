@@ -10,9 +10,12 @@
 //! | `focused` | `focus_m` `f = [x, z]`, `z > 0` | `(‖f‖ ∓ ‖p − f‖)/c`, `−` before the focus, `+` beyond |
 //!
 //! "Before the focus" means on the array's side of the line through `f`
-//! perpendicular to the beam axis `f − 0`: `(p − f)·f < 0` (the virtual-source
-//! model of PyMUST `dasmtx` with `param.useVirtualSource`, and of USTB's
-//! `midprocess.das`; for an on-axis focus the same as `z < z_f`). Diverging and
+//! perpendicular to the beam axis `f − 0`: `(p − f)·f < 0` (for an on-axis
+//! focus the same as `z < z_f`). Inside the beam (the lines from the aperture
+//! through the focus) this is PyMUST `dasmtx`'s virtual-source model
+//! (`param.useVirtualSource`); outside it PyMUST takes the nearest normal of
+//! its virtual transducer, an edge-wave construction, and neither model
+//! describes the field there. Diverging and
 //! focused waves are spherical (circular in 2-D) about `v` or `f`: PyMUST's
 //! `txdelay(param, tilt, width)` returns the delays of the virtual source
 //! `angles2origo(L, tilt, width)` behind a flat array, and `txdelay(x0, z0,
