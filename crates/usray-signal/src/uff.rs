@@ -1,6 +1,6 @@
 //! UFF channel data (USTB's ultrasound file format, also PICMUS's): import into
 //! CONTRACT §2 channel data and export from it, for plane-wave transmits on a
-//! linear array.
+//! linear array (import also reads spherical waves: diverging and focused).
 //!
 //! Format: USTB's `+uff` classes (`uff.channel_data`, `uff.wave`, `uff.point`,
 //! `uff.linear_array`, `uff.pulse`) as stored in HDF5 by USTB and by `pyuff_ustb`
@@ -23,7 +23,12 @@
 //!   height. The elements must lie on `z = 0` at `x = (i - (N-1)/2)·pitch`.
 //! - Waves: `wavefront` plane (0), or — in files without `wavefront` — a `source`
 //!   at infinite `distance`; the steering angle is `source.azimuth`, the
-//!   elevation must be 0.
+//!   elevation must be 0. Import also reads `wavefront` spherical (1) with a
+//!   finite `source` (`uff.point`: `(x, z) = distance·(sin azimuth, cos azimuth)`
+//!   at elevation 0): behind the array (`z < 0`) a `diverging` transmit with
+//!   that `virtual_source_m`, in front of it a `focused` one with that `focus_m`
+//!   (`crate::transmit`; USTB's clock is the same, t = 0 when the wave passes
+//!   the origin).
 //!
 //! **Time origin.** USTB's `uff.wave` documentation: "`delay` defines the time
 //! interval between the reference time `t0` and the start of acquisition for this
@@ -40,9 +45,13 @@
 //! `delay = t0_for(n) - t0_s`.
 //!
 //! Not supported, each refused naming it: IQ data (`modulation_frequency` ≠ 0, or
-//! complex `data`), other probes (curvilinear, matrix), spherical and
-//! photoacoustic waves, elevated plane waves, several `uff.channel_data` objects
-//! in one file.
+//! complex `data`), other probes (matrix; curvilinear: USTB's
+//! `uff.curvilinear_array` puts the arc's apex on the origin where usray puts
+//! the chord through the end elements, PyMUST's convention, so its positions
+//! and each wave's time origin would need moving by `R − h`), photoacoustic
+//! waves, elevated waves, a spherical wave's source on `z = 0`, several
+//! `uff.channel_data` objects in one file; export writes plane waves on flat
+//! arrays only.
 
 use std::path::Path;
 
@@ -55,6 +64,7 @@ use crate::channels::{
 use crate::error::{Result, SignalError};
 use crate::h5::{create_atomic, element_count, read_f64, string_attr, R};
 use crate::import::{validated, ImportOptions};
+use crate::transmit::{TransmitWave, FOCUS_KEY, VIRTUAL_SOURCE_KEY};
 
 /// What a UFF file may make the reader hold, checked before the read allocates.
 pub mod limits {
@@ -67,6 +77,8 @@ pub mod limits {
 const CHANNEL_DATA_CLASS: &str = "uff.channel_data";
 /// `uff.wavefront.plane`.
 const WAVEFRONT_PLANE: f64 = 0.0;
+/// USTB's `uff.wavefront.spherical`.
+const WAVEFRONT_SPHERICAL: f64 = 1.0;
 /// Rows of a `geometry` (x, y, z, azimuth, elevation, width, height).
 const GEOMETRY_ROWS: usize = 7;
 /// How far an element may lie from its place on an ideal linear array, in
@@ -155,9 +167,20 @@ fn read_channel_data(path: &Path, options: &ImportOptions) -> R<ChannelData> {
                 if tagged {
                     extra.insert(FRAME_KEY.into(), frame.into());
                 }
+                let (kind, angle_rad) = match w.wave {
+                    TransmitWave::PlaneWave { angle_rad } => ("plane_wave", angle_rad),
+                    TransmitWave::Diverging { source_m } => {
+                        extra.insert(VIRTUAL_SOURCE_KEY.into(), source_m.to_vec().into());
+                        ("diverging", 0.0)
+                    }
+                    TransmitWave::Focused { focus_m } => {
+                        extra.insert(FOCUS_KEY.into(), focus_m.to_vec().into());
+                        ("focused", 0.0)
+                    }
+                };
                 TransmitMeta {
-                    kind: "plane_wave".into(),
-                    angle_rad: w.angle_rad,
+                    kind: kind.into(),
+                    angle_rad,
                     t0_s: (!same_delay).then_some(initial_time + w.delay_s),
                     extra,
                 }
@@ -169,7 +192,7 @@ fn read_channel_data(path: &Path, options: &ImportOptions) -> R<ChannelData> {
         "source".into(),
         serde_json::json!({
             "file": path.file_name().map(|f| f.to_string_lossy().into_owned()),
-            "layout": format!("UFF {CHANNEL_DATA_CLASS} `{at}` (RF, plane waves, linear array)"),
+            "layout": format!("UFF {CHANNEL_DATA_CLASS} `{at}` (RF, plane or spherical waves, linear array)"),
             "clock": "t0 = initial_time + sequence(n).delay (USTB: t = 0 when the wave passes the origin, the array centre)",
             "overrides": options.overrides(),
         }),
@@ -378,13 +401,14 @@ fn check_linear(geometry: &[f64], n: usize, pitch: f64, at: &str) -> R<()> {
     Ok(())
 }
 
-/// One plane-wave transmit of the sequence.
-struct PlaneWave {
-    angle_rad: f64,
+/// One transmit of the sequence and its `delay` (USTB: sample 0 of this wave
+/// is at `initial_time + delay` after the wave passed the origin).
+struct Wave {
+    wave: TransmitWave<f64>,
     delay_s: f64,
 }
 
-fn read_waves(cd: &Group, at: &str) -> R<Vec<PlaneWave>> {
+fn read_waves(cd: &Group, at: &str) -> R<Vec<Wave>> {
     let sequence = object(cd, "sequence", at)?;
     let at = format!("{at}/sequence");
     // One wave is stored as the object itself, several as members NAME_0001, ….
@@ -406,31 +430,46 @@ fn read_waves(cd: &Group, at: &str) -> R<Vec<PlaneWave>> {
     waves.iter().map(|(at, w)| read_wave(w, at)).collect()
 }
 
-fn read_wave(wave: &Group, at: &str) -> R<PlaneWave> {
+fn read_wave(wave: &Group, at: &str) -> R<Wave> {
     let source = object(wave, "source", at)?;
     let source_at = format!("{at}/source");
     let azimuth = scalar(&source, "azimuth", &source_at)?.unwrap_or(0.0);
     let elevation = scalar(&source, "elevation", &source_at)?.unwrap_or(0.0);
     let distance = scalar(&source, "distance", &source_at)?.unwrap_or(0.0);
-    let plane = match scalar(wave, "wavefront", at)? {
-        Some(w) => w == WAVEFRONT_PLANE,
-        None => distance.is_infinite(),
+    let wavefront = scalar(wave, "wavefront", at)?;
+    let (plane, spherical) = match wavefront {
+        Some(w) => (w == WAVEFRONT_PLANE, w == WAVEFRONT_SPHERICAL),
+        None => (distance.is_infinite(), false),
     };
-    if !plane {
-        return Err(format!(
-            "`{at}` is not a plane wave (wavefront {:?}, source distance {distance} m); only plane waves are supported",
-            scalar(wave, "wavefront", at)?
-        ));
-    }
     if elevation != 0.0 {
         return Err(format!(
-            "`{source_at}/elevation` = {elevation} rad; only plane waves steered in azimuth are supported"
+            "`{source_at}/elevation` = {elevation} rad; only waves steered in azimuth are supported"
         ));
     }
-    Ok(PlaneWave {
-        angle_rad: azimuth,
-        delay_s: scalar(wave, "delay", at)?.unwrap_or(0.0),
-    })
+    let delay_s = scalar(wave, "delay", at)?.unwrap_or(0.0);
+    if plane {
+        return Ok(Wave {
+            wave: TransmitWave::PlaneWave { angle_rad: azimuth },
+            delay_s,
+        });
+    }
+    if !(spherical && distance.is_finite()) {
+        return Err(format!(
+            "`{at}` is not a plane wave, nor a spherical wave from a finite source (wavefront {wavefront:?}, source distance {distance} m)"
+        ));
+    }
+    let p = [distance * azimuth.sin(), distance * azimuth.cos()];
+    let wave = if p[1] < 0.0 {
+        TransmitWave::Diverging { source_m: p }
+    } else if p[1] > 0.0 {
+        TransmitWave::Focused { focus_m: p }
+    } else {
+        return Err(format!(
+            "`{source_at}` lies on the array plane (z = 0, x = {} m): neither a virtual source behind the array nor a focus in front of it",
+            p[0]
+        ));
+    };
+    Ok(Wave { wave, delay_s })
 }
 
 /// The samples of `data`: `(frames if 4-D, samples in [frame, wave, element,
