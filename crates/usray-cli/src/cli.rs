@@ -104,13 +104,18 @@ pub enum Command {
         common: Common,
     },
     /// Form a B-mode (bmode.npy, bmode.png, bmode_figure.png/.svg) from any channel
-    /// data (CONTRACT §2), on the imaging grid of the scene's [imaging] table.
+    /// data (CONTRACT §2), on the imaging grid of the scene's [imaging] table, or
+    /// without a scene on a grid showing all the records hold. Phased and convex
+    /// probes are beamformed on their sector and scan-converted to the Cartesian pixels.
     Beamform {
         /// Channel data: the .json sidecar (its .npy sits beside it).
         channels: PathBuf,
-        /// Scene whose [imaging] table sets the grid, F-number, dynamic range and speed.
+        /// Scene whose [imaging] table sets the grid, F-number, dynamic range and
+        /// speed. Without it: depth 0 to the deepest echo the records hold, the
+        /// probe's field of view (linear: its aperture; phased: ±45°; convex: its
+        /// arc), quarter-wavelength pixels, F-number 1.5, 60 dB.
         #[arg(long)]
-        scene: PathBuf,
+        scene: Option<PathBuf>,
         /// Options every command takes.
         #[command(flatten)]
         common: Common,

@@ -37,18 +37,17 @@ pub fn confirm_work(
         "this run would trace about {total:.1e} rays ({renders:.0} render(s) of {per_render:.1e}: elements × transmits × rays per element), at least {:.2} core-hours at 4e6 rays/s; lower the rays (--rays) or pass --yes to run it",
         total / 4e6 / 3600.0
     );
-    confirm_beamforming(renders, scene, channels, yes)
+    confirm_beamforming(renders, usray_optim::grid_shape(scene)?, channels, yes)
 }
 
-/// Refuses forming `images` B-modes on `scene`'s grid from `channels` records
+/// Refuses forming `images` B-modes of `(nz, nx)` pixels from `channels` records
 /// (elements × transmits) past [`MAX_DAS_TERMS_WITHOUT_YES`] unless `yes`.
 pub fn confirm_beamforming(
     images: f64,
-    scene: &usray_transport::Scene,
+    (nz, nx): (usize, usize),
     channels: f64,
     yes: bool,
 ) -> Result<()> {
-    let (nz, nx) = usray_optim::grid_shape(scene)?;
     let terms = images * (nz * nx) as f64 * channels;
     anyhow::ensure!(
         yes || terms <= MAX_DAS_TERMS_WITHOUT_YES,

@@ -26,129 +26,18 @@
 
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
-use serde::{Deserialize, Serialize};
 
+use crate::array::{ArrayGeometry, ArrayKind};
 use crate::channels::{ChannelData, ChannelMeta};
-use crate::das::{linspace, CalibrationGrad, Das};
+use crate::das::{CalibrationGrad, Das};
 use crate::demod::{Analytic, IqDemod};
 use crate::error::{Result, SignalError};
 use crate::gain::gain_table;
+use crate::grid::{PolarGrid, ScanConversion};
+pub use crate::imaging::{Demod, GridKind, ImagingSettings, MAX_PIXELS};
 use crate::post;
 
 mod center_frequency;
-
-/// Largest image (`nz · nx`) [`ImagingSettings::grid`] accepts.
-pub const MAX_PIXELS: usize = 20_000_000;
-
-/// How complex samples are formed before delay-and-sum.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum Demod {
-    /// Baseband IQ: mix at `f_c` with absolute time, low-pass, rotate by
-    /// `exp(+2πi f_c τ)` after the delay (PyMUST `rf2iq` + `dasmtx`). Required for
-    /// band-pass-undersampled data (`f_s < 2 f_c`).
-    #[default]
-    Iq,
-    /// Analytic signal of the RF (FFT Hilbert transform), delayed without rotation.
-    Hilbert,
-}
-
-/// Imaging settings: CONTRACT §3 `[imaging]` plus demodulation choices.
-/// Deserialises from the `[imaging]` table (missing keys take the defaults below).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct ImagingSettings {
-    /// Lateral extent `[x_min, x_max]`, m.
-    pub x_range_m: [f64; 2],
-    /// Depth extent `[z_min, z_max]`, m.
-    pub z_range_m: [f64; 2],
-    /// Pixel size, m: the grid is `linspace(min, max, round((max − min)/pixel) + 1)`
-    /// on each axis.
-    pub pixel_m: f64,
-    /// Receive F-number; 0 = full aperture.
-    pub f_number: f64,
-    /// Dynamic range `D`, dB: grey = clamp((dB + D)/D, 0, 1).
-    pub dynamic_range_db: f64,
-    /// Sound speed the beamformer assumes, m/s; `None` = the channel data's.
-    pub sound_speed_m_s: Option<f64>,
-    /// Demodulation before delay-and-sum.
-    pub demod: Demod,
-    /// IQ low-pass cut-off as a fraction of `f_c`, *full* band: cut-off =
-    /// fraction·f_c/2 (PyMUST `rf2iq`: Butterworth at bandwidth/2). `None` = the
-    /// probe's `bandwidth_percent`/100 when the channel data carries it, else 1.
-    pub iq_bandwidth_fraction: Option<f64>,
-    /// Butterworth order of the IQ low-pass (PyMUST: 5).
-    pub filter_order: usize,
-    /// Depth-gain compensation applied before demodulation, dB/cm (0 = off).
-    pub depth_gain_db_per_cm: f64,
-}
-
-impl Default for ImagingSettings {
-    fn default() -> Self {
-        ImagingSettings {
-            x_range_m: [-0.02, 0.02],
-            z_range_m: [0.001, 0.035],
-            pixel_m: 0.1e-3,
-            f_number: 1.5,
-            dynamic_range_db: 60.0,
-            sound_speed_m_s: None,
-            demod: Demod::Iq,
-            iq_bandwidth_fraction: None,
-            filter_order: 5,
-            depth_gain_db_per_cm: 0.0,
-        }
-    }
-}
-
-impl ImagingSettings {
-    /// Settings on the given ranges and pixel size, other fields default.
-    pub fn new(x_range_m: [f64; 2], z_range_m: [f64; 2], pixel_m: f64) -> Self {
-        ImagingSettings {
-            x_range_m,
-            z_range_m,
-            pixel_m,
-            ..Default::default()
-        }
-    }
-
-    /// The pixel grid `(x_m, z_m)`.
-    pub fn grid(&self) -> Result<(Vec<f64>, Vec<f64>)> {
-        let axis = |name: &str, r: [f64; 2]| -> Result<Vec<f64>> {
-            if !(r[0].is_finite() && r[1].is_finite() && r[1] >= r[0]) {
-                return Err(SignalError::Invalid(format!(
-                    "imaging.{name} = {r:?} (need min ≤ max, finite)"
-                )));
-            }
-            if !(self.pixel_m.is_finite() && self.pixel_m > 0.0) {
-                return Err(SignalError::Invalid(format!(
-                    "imaging.pixel_m = {}",
-                    self.pixel_m
-                )));
-            }
-            let n = ((r[1] - r[0]) / self.pixel_m).round();
-            if n.is_nan() || n >= 100_000.0 {
-                return Err(SignalError::Invalid(format!(
-                    "imaging.{name}: {} pixels is too many (at most 100000 per axis)",
-                    n + 1.0
-                )));
-            }
-            Ok(linspace(r[0], r[1], n as usize + 1))
-        };
-        let (x, z) = (
-            axis("x_range_m", self.x_range_m)?,
-            axis("z_range_m", self.z_range_m)?,
-        );
-        if x.len() * z.len() > MAX_PIXELS {
-            return Err(SignalError::Invalid(format!(
-                "imaging grid of {} × {} = {} pixels is too large (at most {MAX_PIXELS})",
-                z.len(),
-                x.len(),
-                x.len() * z.len()
-            )));
-        }
-        Ok((x, z))
-    }
-}
 
 /// A B-mode image `[nz, nx]` (row = depth), values in `[0, 1]`.
 #[derive(Clone, Debug, PartialEq)]
@@ -182,8 +71,13 @@ pub struct BMode {
     /// The settings it was built from.
     pub settings: ImagingSettings,
     /// The delay-and-sum stage (grid, clock, aperture, frames): one coherent
-    /// image per frame.
+    /// image per frame, on the Cartesian pixels or on a polar sector.
     pub das: Das,
+    /// The Cartesian axes of the output image, m (columns, rows).
+    x_m: Vec<f64>,
+    z_m: Vec<f64>,
+    /// Polar sector → Cartesian pixels, when delay-and-sum runs on a sector.
+    scan: Option<ScanConversion>,
     demod: Option<IqDemod>,
     /// Per transmit, the IQ mixing phases of its records ([`IqDemod::mixing`]).
     mixing: Vec<Vec<(f64, f64)>>,
@@ -203,6 +97,9 @@ pub struct Workspace {
     bf_bar: Vec<Complex64>,
     env: Vec<f64>,
     env_bar: Vec<f64>,
+    /// Envelope on the polar sector and its cotangent (sector grids only).
+    env_polar: Vec<f64>,
+    env_polar_bar: Vec<f64>,
     db: Vec<f64>,
     db_bar: Vec<f64>,
     argmax: usize,
@@ -274,7 +171,35 @@ impl BMode {
             }
         }
         let rotate = settings.demod == Demod::Iq;
-        let das = Das::new(meta, n_samples, x, z, c, settings.f_number, rotate)?;
+        let array = ArrayGeometry::from_meta(&meta.probe).map_err(SignalError::Invalid)?;
+        let sector = match settings.grid {
+            GridKind::Auto => array.kind != ArrayKind::Linear,
+            GridKind::Cartesian => false,
+            GridKind::Sector => true,
+        };
+        let (das, scan) = if sector {
+            let polar = PolarGrid::sector(
+                &array,
+                settings.x_range_m,
+                settings.z_range_m,
+                settings.pixel_m,
+            )
+            .map_err(|e| SignalError::Invalid(format!("imaging grid (sector): {e}")))?;
+            let scan = ScanConversion::new(&polar, &x, &z);
+            let das = Das::new_polar(meta, n_samples, polar, c, settings.f_number, rotate)?;
+            (das, Some(scan))
+        } else {
+            let das = Das::new(
+                meta,
+                n_samples,
+                x.clone(),
+                z.clone(),
+                c,
+                settings.f_number,
+                rotate,
+            )?;
+            (das, None)
+        };
         if settings.demod == Demod::Iq && !(1..=20).contains(&settings.filter_order) {
             return Err(SignalError::Invalid(format!(
                 "imaging.filter_order = {} (the IQ low-pass order must be 1–20)",
@@ -320,6 +245,9 @@ impl BMode {
         Ok(BMode {
             settings: settings.clone(),
             das,
+            x_m: x,
+            z_m: z,
+            scan,
             demod,
             mixing,
             analytic,
@@ -330,7 +258,18 @@ impl BMode {
 
     /// Image shape `(nz, nx)`.
     pub fn image_shape(&self) -> (usize, usize) {
-        self.das.image_shape()
+        (self.z_m.len(), self.x_m.len())
+    }
+
+    /// Number of delay-and-sum pixels (Cartesian, or polar on a sector).
+    fn das_pixels(&self) -> usize {
+        let (a, b) = self.das.image_shape();
+        a * b
+    }
+
+    /// The polar sector delay-and-sum runs on, if the image is scan-converted.
+    pub fn sector(&self) -> Option<&PolarGrid> {
+        self.das.polar.as_ref()
     }
 
     /// Shape of the channel data this operator takes:
@@ -363,10 +302,19 @@ impl BMode {
             cx: vec![zero; n],
             cx_bar: Vec::new(),
             scratch: Vec::new(),
-            bf: vec![zero; m * self.das.n_frames],
+            bf: vec![zero; self.das.out_len()],
             bf_bar: Vec::new(),
             env: vec![0.0; m],
             env_bar: Vec::new(),
+            env_polar: vec![
+                0.0;
+                if self.scan.is_some() {
+                    self.das_pixels()
+                } else {
+                    0
+                }
+            ],
+            env_polar_bar: Vec::new(),
             db: vec![0.0; m],
             db_bar: Vec::new(),
             argmax: 0,
@@ -378,12 +326,13 @@ impl BMode {
     /// (`usray beamform`) never pays for them.
     fn vjp_buffers(&self, ws: &mut Workspace) {
         let (nz, nx) = self.image_shape();
-        let (n, m, f) = (self.das.data_len(), nz * nx, self.das.n_frames);
+        let (n, m) = (self.das.data_len(), nz * nx);
         let zero = Complex64::new(0.0, 0.0);
         ws.cx_bar.resize(n, zero);
         ws.scratch.resize(n, zero);
-        ws.bf_bar.resize(m * f, zero);
+        ws.bf_bar.resize(self.das.out_len(), zero);
         ws.env_bar.resize(m, 0.0);
+        ws.env_polar_bar.resize(ws.env_polar.len(), 0.0);
         ws.db_bar.resize(m, 0.0);
     }
 
@@ -391,13 +340,20 @@ impl BMode {
     fn check_workspace(&self, ws: &Workspace) -> Result<()> {
         let (nz, nx) = self.image_shape();
         let (n, m, f) = (self.das.data_len(), nz * nx, self.das.n_frames);
+        let polar = if self.scan.is_some() {
+            self.das_pixels()
+        } else {
+            0
+        };
         // The VJP's buffers are empty until its first call.
         let vjp_ok = |len: usize, want: usize| len == 0 || len == want;
         let ok = ws.cx.len() == n
             && vjp_ok(ws.cx_bar.len(), n)
             && vjp_ok(ws.scratch.len(), n)
-            && ws.bf.len() == m * f
-            && vjp_ok(ws.bf_bar.len(), m * f)
+            && ws.bf.len() == self.das.out_len()
+            && vjp_ok(ws.bf_bar.len(), self.das.out_len())
+            && ws.env_polar.len() == polar
+            && vjp_ok(ws.env_polar_bar.len(), polar)
             && [&ws.env, &ws.db].iter().all(|v| v.len() == m)
             && [&ws.env_bar, &ws.db_bar].iter().all(|v| vjp_ok(v.len(), m));
         if ok {
@@ -467,8 +423,15 @@ impl BMode {
         let (nz, nx) = self.image_shape();
         let npix = nz * nx;
         self.das.forward(&ws.cx, &mut ws.bf);
-        // 4. envelope per frame, mean over frames, log, clip.
-        self.mean_envelope(ws);
+        // 4. envelope per frame, mean over frames (scan-converted from a
+        //    sector), log, clip.
+        match &self.scan {
+            None => self.mean_envelope(&ws.bf, &mut ws.env),
+            Some(sc) => {
+                self.mean_envelope(&ws.bf, &mut ws.env_polar);
+                sc.forward(&ws.env_polar, &mut ws.env);
+            }
+        }
         ws.argmax = post::log_compress(&ws.env, &mut ws.db);
         let mut data = vec![0.0; npix];
         post::clip_dynamic_range(&ws.db, self.settings.dynamic_range_db, &mut data);
@@ -476,22 +439,21 @@ impl BMode {
         Ok(Image {
             nz,
             nx,
-            x_m: self.das.x_m.clone(),
-            z_m: self.das.z_m.clone(),
+            x_m: self.x_m.clone(),
+            z_m: self.z_m.clone(),
             data,
         })
     }
 
     /// `env = (1/F) Σ_f |bf_f|` (for one frame exactly `|bf|`).
-    fn mean_envelope(&self, ws: &mut Workspace) {
+    fn mean_envelope(&self, bf: &[Complex64], env: &mut [f64]) {
         let nf = self.das.n_frames;
         if nf == 1 {
-            post::envelope(&ws.bf, &mut ws.env);
+            post::envelope(bf, env);
         } else {
             let inv = 1.0 / nf as f64;
-            ws.env
-                .par_iter_mut()
-                .zip(ws.bf.par_chunks(nf))
+            env.par_iter_mut()
+                .zip(bf.par_chunks(nf))
                 .for_each(|(e, u)| *e = u.iter().map(|v| v.norm()).sum::<f64>() * inv);
         }
     }
@@ -520,16 +482,23 @@ impl BMode {
             &mut ws.db_bar,
         );
         post::log_compress_vjp(&ws.env, ws.argmax, &ws.db_bar, &mut ws.env_bar);
+        let env_bar: &[f64] = match &self.scan {
+            None => &ws.env_bar,
+            Some(sc) => {
+                sc.vjp(&ws.env_bar, &mut ws.env_polar_bar);
+                &ws.env_polar_bar
+            }
+        };
         let nf = self.das.n_frames;
         if nf == 1 {
-            post::envelope_vjp(&ws.bf, &ws.env_bar, &mut ws.bf_bar);
+            post::envelope_vjp(&ws.bf, env_bar, &mut ws.bf_bar);
         } else {
             // E = (1/F) Σ_f |u_f|  ⇒  ū_f = (Ē/F)·u_f/|u_f|.
             let inv = 1.0 / nf as f64;
             ws.bf_bar
                 .par_chunks_mut(nf)
                 .zip(ws.bf.par_chunks(nf))
-                .zip(&ws.env_bar)
+                .zip(env_bar)
                 .for_each(|((ub, u), &g)| {
                     for (b, v) in ub.iter_mut().zip(u) {
                         let n = v.norm();
@@ -604,7 +573,9 @@ impl BMode {
 
     /// Gradient of `L` with respect to the beamforming sound speed and pitch at the
     /// last forward point, given `∂L/∂I` (uses the same chain down to the
-    /// beamformed images, then [`Das::calibration_vjp`]).
+    /// beamformed images, then [`Das::calibration_vjp`]). On a sector the polar
+    /// pixels are held where they are: the derivative does not include the
+    /// sector's own motion with the pitch (a convex array's arc centre moves).
     ///
     /// # Errors
     /// As [`BMode::vjp`].

@@ -6,6 +6,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::array::ArrayGeometry;
+use crate::transmit::TransmitWave;
+
 /// The format tag of CONTRACT §2.
 pub const CHANNELS_FORMAT: &str = "usray-channels/1";
 
@@ -33,7 +36,9 @@ pub mod limits {
 /// Probe description carried by channel data (CONTRACT §2 `probe`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ProbeMeta {
-    /// Array kind; only `"linear"` is defined so far.
+    /// Array kind: `"linear"`, `"phased"` or `"convex"` ([`crate::array`]); a
+    /// convex probe also carries `radius_m` (in `extra`, read by
+    /// [`crate::array::ArrayGeometry::from_meta`]).
     pub kind: String,
     /// Number of elements.
     pub n_elements: usize,
@@ -49,9 +54,13 @@ pub struct ProbeMeta {
 /// One transmit event (CONTRACT §2 `transmits[i]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TransmitMeta {
-    /// Transmit kind; only `"plane_wave"` is defined so far.
+    /// Transmit kind: `"plane_wave"`, `"diverging"` (key `virtual_source_m`) or
+    /// `"focused"` (key `focus_m`), both keys kept in `extra` and read by
+    /// [`crate::transmit::TransmitWave::from_meta`].
     pub kind: String,
-    /// Steering angle θ, radians; arrival time at `(x, z)` is `(x sin θ + z cos θ)/c`.
+    /// Steering angle θ of a plane wave, radians; arrival time at `(x, z)` is
+    /// `(x sin θ + z cos θ)/c`. Absent (read as 0) for the other kinds.
+    #[serde(default)]
     pub angle_rad: f64,
     /// Time of sample 0 for this transmit on the clock of CONTRACT §1, seconds;
     /// overrides the global `t0_s` when present.
@@ -148,9 +157,12 @@ impl ChannelMeta {
 
     /// Checks every field against its physical range ([`limits`]): the format
     /// tag, positive finite frequencies, speed and pitch, a width in
-    /// `(0, pitch]`, a known probe kind (`"linear"`) and transmit kind
-    /// (`"plane_wave"`), angles inside ±90°, finite times of sample 0, and
-    /// consistent frame tags. The error names the field.
+    /// `(0, pitch]`, a known probe kind (`"linear"`, `"phased"`, `"convex"` with a
+    /// radius of at least half the aperture; [`ArrayGeometry::from_meta`]) and
+    /// transmit kind (`"plane_wave"` with an angle inside ±90°, `"diverging"`
+    /// from behind the array, `"focused"` in front of it;
+    /// [`TransmitWave::from_meta`]), finite times of sample 0, and consistent
+    /// frame tags. The error names the field.
     pub fn validate(&self) -> Result<(), String> {
         if self.format != CHANNELS_FORMAT {
             return Err(format!(
@@ -181,22 +193,12 @@ impl ChannelMeta {
             limits::SOUND_SPEED_M_S,
         )?;
         in_range("probe.pitch_m", self.probe.pitch_m, limits::PITCH_M)?;
-        in_range(
-            "probe.element_width_m",
-            self.probe.element_width_m,
-            (0.0, self.probe.pitch_m),
-        )?;
+        ArrayGeometry::from_meta(&self.probe)?;
         if !(self.t0_s.is_finite() && self.t0_s.abs() <= limits::MAX_ABS_T0_S) {
             return Err(format!(
                 "`t0_s` must be finite and within ±{} s, got {}",
                 limits::MAX_ABS_T0_S,
                 self.t0_s
-            ));
-        }
-        if self.probe.kind != "linear" {
-            return Err(format!(
-                "`probe.kind` is {:?}; only \"linear\" is supported",
-                self.probe.kind
             ));
         }
         if !(1..=limits::MAX_ELEMENTS).contains(&self.probe.n_elements) {
@@ -210,18 +212,7 @@ impl ChannelMeta {
             return Err("`transmits` is empty".into());
         }
         for (i, t) in self.transmits.iter().enumerate() {
-            if t.kind != "plane_wave" {
-                return Err(format!(
-                    "transmits[{i}].kind is {:?}; only \"plane_wave\" is supported",
-                    t.kind
-                ));
-            }
-            if !(t.angle_rad.is_finite() && t.angle_rad.abs() < std::f64::consts::FRAC_PI_2) {
-                return Err(format!(
-                    "transmits[{i}].angle_rad must be finite and inside ±π/2, got {}",
-                    t.angle_rad
-                ));
-            }
+            TransmitWave::from_meta(i, t)?;
             if let Some(t0) = t.t0_s {
                 if !(t0.is_finite() && t0.abs() <= limits::MAX_ABS_T0_S) {
                     return Err(format!(

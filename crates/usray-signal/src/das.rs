@@ -1,27 +1,33 @@
-//! Plane-wave delay-and-sum (paper eq. `das`) and its adjoint, the back-projection
-//! (paper eq. `das_adjoint`), on RF or complex (IQ / analytic) channel data.
+//! Delay-and-sum (paper eq. `das`) and its adjoint, the back-projection (paper eq.
+//! `das_adjoint`), on RF or complex (IQ / analytic) channel data, for any array of
+//! [`crate::array`] and any transmit of [`crate::transmit`].
 //!
-//! For pixel `(x, z)`, transmit `θ` (CONTRACT §1 clock) and element `e` at
-//! `x_e = (e − (N−1)/2)·pitch` on `z = 0`, the two-way time (s) is
+//! For pixel `p = (x, z)`, transmit `t` and element `e` centred at `x_e`
+//! ([`ArrayGeometry::element`]), the two-way time (s) on the CONTRACT §1 clock is
 //!
-//! `τ = (x sin θ + z cos θ)/c + √((x − x_e)² + z²)/c`
+//! `τ = t_t(p) + ‖p − x_e‖/c`
 //!
-//! (Montaldo et al., "Coherent plane-wave compounding for very fast ultrasonography",
-//! IEEE TUFFC 56(3), 2009, with the transmit origin at the
-//! array centre). The sample position is `s = (τ − t0_θ)·f_s` with `t0_θ` the time of
+//! with `t_t` the transmit's arrival time ([`TransmitWave::arrival_time_s`]); for
+//! a plane wave on a flat array `τ = (x sin θ + z cos θ)/c + √((x − x_e)² + z²)/c`
+//! (Montaldo et al., "Coherent plane-wave compounding for very fast
+//! ultrasonography", IEEE TUFFC 56(3), 2009, with the transmit origin at the
+//! array centre). The sample position is `s = (τ − t0_t)·f_s` with `t0_t` the time of
 //! sample 0 of that transmit; the record is read by linear interpolation
 //! `P(s) = (1 − w)·P[i] + w·P[i+1]`, `i = ⌊s⌋`, `w = s − i`; positions with `s < 0`
 //! or `i + 1 ≥ n_samples` contribute 0. On baseband IQ data the interpolated value is
 //! multiplied by `exp(+2πi f_c τ)` to restore the carrier phase (Szabo, "Diagnostic
 //! Ultrasound Imaging: Inside Out", quadrature sampling; as PyMUST `dasmtx`). Receive apodisation by F-number
-//! `F`: element `e` contributes with weight 1 if `|x − x_e| ≤ z/(2F)`, else 0
-//! (rectangular; `F = 0` = full aperture). Transmits are summed coherently within
+//! `F`: element `e` contributes with weight 1 if `p` lies in the cone of half-angle
+//! `atan(1/(2F))` about the element's normal (for a flat array `|x − x_e| ≤
+//! z/(2F)`; PyMUST `dasmtx`), else 0 (rectangular; `F = 0` = full aperture). The
+//! pixels are the Cartesian grid `x_m` × `z_m` or a polar sector
+//! ([`crate::grid::PolarGrid`], [`Das::new_polar`]). Transmits are summed coherently within
 //! each frame (the transmits' `frame` keys, [`ChannelMeta::frames`]); the output
 //! holds one coherent image per frame, pixel-major `[nz, nx, n_frames]` (for
 //! single-frame data simply `[nz, nx]`).
 //!
-//! Speed: when the `x` grid is uniform and the pitch is an integer multiple of its
-//! step, the receive distance and phase are tabulated once per distinct `x − x_e`
+//! Speed: for a flat array on a Cartesian grid uniform in `x` whose step divides
+//! the pitch, the receive distance and phase are tabulated once per distinct `x − x_e`
 //! per row (same formula, same values up to rounding). The calibration gradients
 //! use the same delays and phases as the forward pass (the phase of a delay as the
 //! product of its transmit and receive phases).
@@ -31,21 +37,38 @@
 //! a fixed order; the calibration gradients reduce per-row partial sums in row order.
 //! Results are therefore bit-identical for any number of threads.
 
+mod lattice;
+mod sample;
+
 use rayon::prelude::*;
 use rustfft::num_complex::Complex64;
 
+use lattice::RxTable;
+use sample::locate;
+pub use sample::{linspace, Sample};
+
+use crate::array::{ArrayGeometry, ArrayKind, Element};
 use crate::channels::ChannelMeta;
 use crate::error::{Result, SignalError};
+use crate::grid::PolarGrid;
+use crate::transmit::TransmitWave;
 
 const TAU: f64 = 2.0 * core::f64::consts::PI;
 
 /// A delay-and-sum configuration: pixel grid, array, clock and aperture.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Das {
-    /// Lateral pixel positions, m (image columns).
+    /// Lateral pixel positions, m (image columns); empty on a polar grid.
     pub x_m: Vec<f64>,
-    /// Depth pixel positions, m (image rows).
+    /// Depth pixel positions, m (image rows); empty on a polar grid.
     pub z_m: Vec<f64>,
+    /// The polar pixel grid (rows = radii, columns = angles) when the image is
+    /// formed on a sector rather than on `x_m` × `z_m`.
+    pub polar: Option<PolarGrid>,
+    /// Array kind (element positions: [`crate::array`]).
+    pub kind: ArrayKind,
+    /// Radius of curvature of a convex array, m (∞ for flat arrays).
+    pub radius_m: f64,
     /// Number of elements.
     pub n_elements: usize,
     /// Element pitch, m.
@@ -56,8 +79,8 @@ pub struct Das {
     pub fs_hz: f64,
     /// Centre (demodulation) frequency, Hz; used for the phase rotation.
     pub fc_hz: f64,
-    /// Per transmit: steering angle, rad.
-    pub angles_rad: Vec<f64>,
+    /// Per transmit: the wave and its time model ([`crate::transmit`]).
+    pub waves: Vec<TransmitWave<f64>>,
     /// Per transmit: time of sample 0, s (CONTRACT §1 clock).
     pub t0_s: Vec<f64>,
     /// Samples per record.
@@ -81,108 +104,6 @@ pub struct CalibrationGrad {
     pub d_sound_speed: f64,
     /// `∂L/∂pitch`, per m.
     pub d_pitch: f64,
-}
-
-/// A real or complex channel sample (RF: `f64`, IQ/analytic: `Complex64`).
-pub trait Sample:
-    Copy
-    + Send
-    + Sync
-    + core::ops::Add<Output = Self>
-    + core::ops::AddAssign
-    + core::ops::Sub<Output = Self>
-    + 'static
-{
-    /// Zero.
-    fn zero() -> Self;
-    /// `self · k`.
-    fn scale(self, k: f64) -> Self;
-    /// `self · r` (for `f64`, `r` is always 1: RF is never rotated).
-    fn rot(self, r: Complex64) -> Self;
-    /// `self · conj(r)`.
-    fn rot_conj(self, r: Complex64) -> Self;
-    /// `Re(conj(g)·self)`: the real inner product of two samples.
-    fn dot(self, g: Self) -> f64;
-    /// `self · i` (only used with rotation, i.e. complex).
-    fn times_i(self) -> Self;
-}
-
-impl Sample for f64 {
-    fn zero() -> Self {
-        0.0
-    }
-    fn scale(self, k: f64) -> Self {
-        self * k
-    }
-    fn rot(self, _r: Complex64) -> Self {
-        self
-    }
-    fn rot_conj(self, _r: Complex64) -> Self {
-        self
-    }
-    fn dot(self, g: Self) -> f64 {
-        self * g
-    }
-    fn times_i(self) -> Self {
-        0.0
-    }
-}
-
-impl Sample for Complex64 {
-    fn zero() -> Self {
-        Complex64::new(0.0, 0.0)
-    }
-    fn scale(self, k: f64) -> Self {
-        self * k
-    }
-    fn rot(self, r: Complex64) -> Self {
-        self * r
-    }
-    fn rot_conj(self, r: Complex64) -> Self {
-        self * r.conj()
-    }
-    fn dot(self, g: Self) -> f64 {
-        self.re * g.re + self.im * g.im
-    }
-    fn times_i(self) -> Self {
-        Complex64::new(-self.im, self.re)
-    }
-}
-
-/// Integer sample `i` and fraction `w` of position `s`, if both `i` and `i + 1` lie
-/// in a record of `ns` samples, i.e. `0 ≤ s < ns − 1` (NaN, negative and too large
-/// positions give `None`; the bound is tested in floating point, since `as usize`
-/// saturates a huge position — a sidecar's `sampling_frequency_hz = 1e300`).
-#[inline]
-fn locate(s: f64, ns: usize) -> Option<(usize, f64)> {
-    if !(s >= 0.0 && s < ns as f64 - 1.0) {
-        return None;
-    }
-    let i = s as usize;
-    Some((i, s - i as f64))
-}
-
-/// `n` points from `a` to `b` inclusive (`n = 1` gives `a`).
-pub fn linspace(a: f64, b: f64, n: usize) -> Vec<f64> {
-    if n == 1 {
-        return vec![a];
-    }
-    (0..n)
-        .map(|i| a + (b - a) * i as f64 / (n - 1) as f64)
-        .collect()
-}
-
-/// Receive delays and phases on a lattice: when the pixel grid is uniform in `x`
-/// and the pitch is an integer multiple `k` of its step `h` (e.g. 0.1 mm pixels,
-/// 0.3 mm pitch), `x − x_e` only takes `nx + k(N−1)` distinct values per row, so
-/// the square root and the phase are computed once per value rather than once per
-/// (pixel, element). Index `j = ix + k(N − 1 − e)`.
-struct RxTable {
-    k: usize,
-    len: usize,
-    trx: Vec<f64>,
-    rrx: Vec<Complex64>,
-    ok: Vec<bool>,
 }
 
 /// One image row's working buffers for [`Das::forward`]: per transmit and
@@ -223,6 +144,41 @@ impl Das {
         f_number: f64,
         rotate: bool,
     ) -> Result<Das> {
+        if x_m.is_empty() || z_m.is_empty() {
+            return Err(SignalError::Invalid("empty pixel grid".into()));
+        }
+        Das::build(meta, n_samples, (x_m, z_m, None), c, f_number, rotate)
+    }
+
+    /// A beamformer like [`Das::new`] on the polar grid `grid` (sector imaging,
+    /// [`crate::grid`]): the output's rows are `grid.r_m`, its columns
+    /// `grid.theta_rad`.
+    pub fn new_polar(
+        meta: &ChannelMeta,
+        n_samples: usize,
+        grid: PolarGrid,
+        c: f64,
+        f_number: f64,
+        rotate: bool,
+    ) -> Result<Das> {
+        Das::build(
+            meta,
+            n_samples,
+            (Vec::new(), Vec::new(), Some(grid)),
+            c,
+            f_number,
+            rotate,
+        )
+    }
+
+    fn build(
+        meta: &ChannelMeta,
+        n_samples: usize,
+        (x_m, z_m, polar): (Vec<f64>, Vec<f64>, Option<PolarGrid>),
+        c: f64,
+        f_number: f64,
+        rotate: bool,
+    ) -> Result<Das> {
         if !(c.is_finite() && c > 0.0) {
             return Err(SignalError::Invalid(format!(
                 "beamforming sound speed {c} m/s"
@@ -236,9 +192,14 @@ impl Das {
         if meta.probe.n_elements == 0 {
             return Err(SignalError::Invalid("probe with 0 elements".into()));
         }
-        if x_m.is_empty() || z_m.is_empty() {
-            return Err(SignalError::Invalid("empty pixel grid".into()));
-        }
+        let array = ArrayGeometry::from_meta(&meta.probe).map_err(SignalError::Invalid)?;
+        let waves = meta
+            .transmits
+            .iter()
+            .enumerate()
+            .map(|(i, t)| TransmitWave::from_meta(i, t))
+            .collect::<std::result::Result<Vec<_>, String>>()
+            .map_err(SignalError::Invalid)?;
         let nt = meta.transmits.len();
         let groups = meta.frames().map_err(SignalError::Invalid)?;
         let mut frame_of = vec![0; nt];
@@ -250,12 +211,15 @@ impl Das {
         Ok(Das {
             x_m,
             z_m,
+            polar,
+            kind: array.kind,
+            radius_m: array.radius_m,
             n_elements: meta.probe.n_elements,
             pitch_m: meta.probe.pitch_m,
             sound_speed_m_s: c,
             fs_hz: meta.sampling_frequency_hz,
             fc_hz: meta.center_frequency_hz,
-            angles_rad: meta.transmits.iter().map(|t| t.angle_rad).collect(),
+            waves,
             t0_s: (0..nt).map(|i| meta.t0_for(i)).collect(),
             n_samples,
             f_number,
@@ -267,86 +231,74 @@ impl Das {
 
     /// Number of transmits.
     pub fn n_transmits(&self) -> usize {
-        self.angles_rad.len()
+        self.waves.len()
     }
     /// Image size `(nz, nx)`.
     pub fn image_shape(&self) -> (usize, usize) {
-        (self.z_m.len(), self.x_m.len())
+        match &self.polar {
+            Some(g) => g.shape(),
+            None => (self.z_m.len(), self.x_m.len()),
+        }
     }
     /// Output length `nz · nx · n_frames`.
     pub fn out_len(&self) -> usize {
-        self.z_m.len() * self.x_m.len() * self.n_frames
+        let (nz, nx) = self.image_shape();
+        nz * nx * self.n_frames
     }
     /// Number of channel samples `n_transmits · n_elements · n_samples`.
     pub fn data_len(&self) -> usize {
         self.n_transmits() * self.n_elements * self.n_samples
     }
-    /// Element centre `x_e`, m.
+    /// Element centre `x_e` of a flat array, m.
     #[inline]
     pub fn element_x(&self, e: usize) -> f64 {
         (e as f64 - (self.n_elements as f64 - 1.0) / 2.0) * self.pitch_m
     }
 
-    /// `k` if the x grid is uniform with step `h` and `pitch = k·h` (to 1e-12).
-    fn lattice_step(&self) -> Option<usize> {
-        let nx = self.x_m.len();
-        if nx < 2 {
-            return None;
+    /// The array this beamformer assumes (its current `kind`, `pitch_m`,
+    /// `radius_m`; the element width plays no part in delay-and-sum and is
+    /// reported as the pitch).
+    pub fn array<T: usray_ad::Real>(&self, pitch_m: T) -> ArrayGeometry<T> {
+        ArrayGeometry {
+            kind: self.kind,
+            n_elements: self.n_elements,
+            pitch_m,
+            element_width_m: pitch_m,
+            radius_m: T::from_f64(self.radius_m),
         }
-        let (x0, x1) = (self.x_m[0], self.x_m[nx - 1]);
-        let h = (x1 - x0) / (nx - 1) as f64;
-        if h.is_nan() || h <= 0.0 {
-            return None;
-        }
-        let scale = x0.abs().max(x1.abs()).max(h);
-        if self
-            .x_m
-            .iter()
-            .enumerate()
-            .any(|(i, &x)| (x - (x0 + i as f64 * h)).abs() > 1e-12 * scale)
-        {
-            return None;
-        }
-        let r = self.pitch_m / h;
-        let k = r.round();
-        ((1.0..=64.0).contains(&k) && (r - k).abs() <= 1e-12 * r).then_some(k as usize)
     }
 
-    fn rx_table(&self) -> Option<RxTable> {
-        let k = self.lattice_step()?;
-        let (nx, ne) = (self.x_m.len(), self.n_elements);
-        let len = nx + k * (ne - 1);
-        let h = (self.x_m[nx - 1] - self.x_m[0]) / (nx - 1) as f64;
-        let mid = (ne as f64 - 1.0) / 2.0;
-        let (c, w) = (self.sound_speed_m_s, TAU * self.fc_hz);
-        let n = len * self.z_m.len();
-        let mut trx = vec![0.0; n];
-        let mut rrx = vec![Complex64::new(1.0, 0.0); n];
-        let mut ok = vec![false; n];
-        trx.par_chunks_mut(len)
-            .zip(rrx.par_chunks_mut(len))
-            .zip(ok.par_chunks_mut(len))
-            .enumerate()
-            .for_each(|(iz, ((tr, rr), okr))| {
-                let z = self.z_m[iz];
-                for j in 0..len {
-                    let dx =
-                        self.x_m[0] + (j as f64 - (k * (ne - 1)) as f64) * h + mid * self.pitch_m;
-                    okr[j] = self.in_aperture(dx, z);
-                    tr[j] = (dx * dx + z * z).sqrt() / c;
-                    if self.rotate {
-                        let (sn, co) = (w * tr[j]).sin_cos();
-                        rr[j] = Complex64::new(co, sn);
-                    }
-                }
-            });
-        Some(RxTable {
-            k,
-            len,
-            trx,
-            rrx,
-            ok,
-        })
+    /// Probe-frame position `(x, z)` of pixel (row `iz`, column `ix`), m.
+    #[inline(always)]
+    pub fn pixel(&self, iz: usize, ix: usize) -> [f64; 2] {
+        match &self.polar {
+            Some(g) => g.pixel(iz, ix),
+            None => [self.x_m[ix], self.z_m[iz]],
+        }
+    }
+
+    /// Per transmit, `(sin θ, cos θ)` of a plane wave (unused for other waves).
+    fn plane_trig(&self) -> Vec<(f64, f64)> {
+        self.waves
+            .iter()
+            .map(|w| match w {
+                TransmitWave::PlaneWave { angle_rad } => angle_rad.sin_cos(),
+                _ => (0.0, 0.0),
+            })
+            .collect()
+    }
+
+    /// Arrival time of transmit `t` at `p`, s: [`TransmitWave::arrival_time_s`],
+    /// with a plane wave's sine and cosine taken from `trig` rather than
+    /// recomputed per pixel (the same expression, so the same bits).
+    #[inline(always)]
+    fn tx_time(&self, t: usize, p: [f64; 2], trig: &[(f64, f64)]) -> f64 {
+        match &self.waves[t] {
+            TransmitWave::PlaneWave { .. } => {
+                (p[0] * trig[t].0 + p[1] * trig[t].1) / self.sound_speed_m_s
+            }
+            w => w.arrival_time_s(p, self.sound_speed_m_s),
+        }
     }
 
     /// Receive time and phase for (pixel `iz, ix`, element `e`), or `None` outside
@@ -355,6 +307,7 @@ impl Das {
     fn rx(
         &self,
         table: Option<&RxTable>,
+        els: &[Element<f64>],
         iz: usize,
         ix: usize,
         e: usize,
@@ -363,12 +316,13 @@ impl Das {
             let idx = iz * t.len + ix + t.k * (self.n_elements - 1 - e);
             return t.ok[idx].then(|| (t.trx[idx], t.rrx[idx]));
         }
-        let (x, z) = (self.x_m[ix], self.z_m[iz]);
-        let dx = x - self.element_x(e);
-        if !self.in_aperture(dx, z) {
+        let p = self.pixel(iz, ix);
+        let el = &els[e];
+        let (dx, dz) = (p[0] - el.centre_m[0], p[1] - el.centre_m[1]);
+        if !self.in_aperture(dx, dz, el.normal) {
             return None;
         }
-        let trx = (dx * dx + z * z).sqrt() / self.sound_speed_m_s;
+        let trx = (dx * dx + dz * dz).sqrt() / self.sound_speed_m_s;
         let rrx = if self.rotate {
             let (s, co) = (TAU * self.fc_hz * trx).sin_cos();
             Complex64::new(co, s)
@@ -378,9 +332,17 @@ impl Das {
         Some((trx, rrx))
     }
 
+    /// Whether the pixel at `(dx, dz)` from an element with normal `n` lies in
+    /// its receive cone: the angle `α` between `(dx, dz)` and `n` has
+    /// `tan α ≤ 1/(2F)`, i.e. `2F·|(dx, dz) × n| ≤ (dx, dz)·n` (PyMUST `dasmtx`:
+    /// `|x − x_e| ≤ z/(2F)` for a linear array, `|asin(dx/r) − θ_e| ≤
+    /// atan(1/(2F))` for a convex one). For `n = (0, 1)` this is exactly the
+    /// linear rule `2F|dx| ≤ dz`.
     #[inline]
-    fn in_aperture(&self, dx: f64, z: f64) -> bool {
-        self.f_number <= 0.0 || 2.0 * self.f_number * dx.abs() <= z
+    fn in_aperture(&self, dx: f64, dz: f64, n: [f64; 2]) -> bool {
+        let cross = dx * n[1] - dz * n[0];
+        let dot = dx * n[0] + dz * n[1];
+        self.f_number <= 0.0 || 2.0 * self.f_number * cross.abs() <= dot
     }
 
     fn check(&self, data_len: usize, out_len: usize) {
@@ -403,16 +365,12 @@ impl Das {
     /// If the buffer lengths disagree with the configuration (a programming error).
     pub fn forward<S: Sample>(&self, data: &[S], out: &mut [S]) {
         self.check(data.len(), out.len());
-        let nx = self.x_m.len();
+        let nx = self.image_shape().1;
         let nt = self.n_transmits();
-        let (c, fs, ns, ne) = (
-            self.sound_speed_m_s,
-            self.fs_hz,
-            self.n_samples,
-            self.n_elements,
-        );
+        let (fs, ns, ne) = (self.fs_hz, self.n_samples, self.n_elements);
         let w = TAU * self.fc_hz;
-        let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
+        let trig = self.plane_trig();
+        let els = self.array(self.pitch_m).elements();
         let table = self.rx_table();
         let table = table.as_ref();
         let nf = self.n_frames;
@@ -427,11 +385,10 @@ impl Das {
                     rrx: rrx_buf,
                     ok: ok_buf,
                 } = sc;
-                let z = self.z_m[iz];
                 // Step 1: each transmit's delay (from sample 0) and phase along the row.
                 for t in 0..nt {
                     for ix in 0..nx {
-                        let tt = (self.x_m[ix] * trig[t].0 + z * trig[t].1) / c;
+                        let tt = self.tx_time(t, self.pixel(iz, ix), &trig);
                         ttx[t * nx + ix] = tt - self.t0_s[t];
                         if self.rotate {
                             let (s, co) = (w * tt).sin_cos();
@@ -452,7 +409,7 @@ impl Das {
                         }
                         None => {
                             for ix in 0..nx {
-                                let r = self.rx(None, iz, ix, e);
+                                let r = self.rx(None, &els, iz, ix, e);
                                 ok_buf[ix] = r.is_some();
                                 if let Some((t, p)) = r {
                                     trx_buf[ix] = t;
@@ -501,26 +458,21 @@ impl Das {
     pub fn vjp<S: Sample>(&self, out_bar: &[S], data_bar: &mut [S], scratch: &mut [S]) {
         self.check(data_bar.len(), out_bar.len());
         assert_eq!(scratch.len(), self.data_len(), "scratch length");
-        let nx = self.x_m.len();
+        let (nz, nx) = self.image_shape();
         let nt = self.n_transmits();
-        let (c, fs, ns, ne) = (
-            self.sound_speed_m_s,
-            self.fs_hz,
-            self.n_samples,
-            self.n_elements,
-        );
+        let (fs, ns, ne) = (self.fs_hz, self.n_samples, self.n_elements);
         let w = TAU * self.fc_hz;
-        let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
+        let trig = self.plane_trig();
+        let els = self.array(self.pitch_m).elements();
         // Transmit delays and rotations per (transmit, pixel), once per call, so the
         // per-element loop pays one sqrt and one sincos per (pixel, element) like
         // the forward pass.
-        let npix = nx * self.z_m.len();
+        let npix = nx * nz;
         let mut txt = vec![0.0; nt * npix];
         let mut txr = vec![Complex64::new(1.0, 0.0); if self.rotate { nt * npix } else { 0 }];
         txt.par_chunks_mut(npix).enumerate().for_each(|(t, tab)| {
             for (p, v) in tab.iter_mut().enumerate() {
-                let (x, z) = (self.x_m[p % nx], self.z_m[p / nx]);
-                *v = (x * trig[t].0 + z * trig[t].1) / c;
+                *v = self.tx_time(t, self.pixel(p / nx, p % nx), &trig);
             }
         });
         if self.rotate {
@@ -539,9 +491,9 @@ impl Das {
             || vec![S::zero(); nf],
             |grx, (e, blk)| {
                 blk.fill(S::zero());
-                for iz in 0..self.z_m.len() {
+                for iz in 0..nz {
                     for ix in 0..nx {
-                        let Some((trx, rrx)) = self.rx(table, iz, ix, e) else {
+                        let Some((trx, rrx)) = self.rx(table, &els, iz, ix, e) else {
                             continue;
                         };
                         let p = iz * nx + ix;
@@ -583,14 +535,19 @@ impl Das {
     /// [`crate::demod`]) and the data the forward pass used. Differentiates
     /// `τ(c, pitch)` through the linear interpolation (`∂P/∂s = P[i+1] − P[i]`) and
     /// the rotation (`∂ exp(iωτ)/∂τ = iω exp(iωτ)`):
-    /// `∂τ/∂c = −τ/c`, `∂τ/∂pitch = −(x − x_e)/(c·r)·(e − (N−1)/2)`. The F-number
-    /// aperture mask is held fixed (a discontinuity without a derivative).
+    /// `∂τ/∂c = −τ/c` (every transmit model and the receive path are a length
+    /// over `c`), `∂τ/∂pitch = −(p − x_e)·(∂x_e/∂pitch)/(c·r)` with the element
+    /// centre's derivative `∂x_e/∂pitch` taken by dual numbers through
+    /// [`ArrayGeometry::element`] (for a flat array `(e − (N−1)/2, 0)`; the
+    /// transmit models do not depend on the pitch: plane waves pass the origin,
+    /// virtual sources and foci are given as points). The F-number aperture mask
+    /// is held fixed (a discontinuity without a derivative).
     ///
     /// # Panics
     /// If the buffer lengths disagree with the configuration.
     pub fn calibration_vjp<S: Sample>(&self, data: &[S], out_bar: &[S]) -> CalibrationGrad {
         self.check(data.len(), out_bar.len());
-        let nx = self.x_m.len();
+        let (nz, nx) = self.image_shape();
         let nt = self.n_transmits();
         let (c, fs, ns, ne) = (
             self.sound_speed_m_s,
@@ -599,8 +556,14 @@ impl Das {
             self.n_elements,
         );
         let w = TAU * self.fc_hz;
-        let trig: Vec<(f64, f64)> = self.angles_rad.iter().map(|a| a.sin_cos()).collect();
-        let mid = (ne as f64 - 1.0) / 2.0;
+        let trig = self.plane_trig();
+        let els = self.array(self.pitch_m).elements();
+        let del: Vec<[f64; 2]> = self
+            .array(usray_ad::Dual::<1>::variable(self.pitch_m, 0))
+            .elements()
+            .iter()
+            .map(|el| [el.centre_m[0].eps[0], el.centre_m[1].eps[0]])
+            .collect();
         // The delays and phases of the forward pass (receive lattice when it
         // applies, transmit part once per pixel), so that this differentiates the
         // forward pass's own sample positions and rotations; the rotation
@@ -609,7 +572,7 @@ impl Das {
         // per (pixel, element, transmit).
         let table = self.rx_table();
         let table = table.as_ref();
-        let rows: Vec<(f64, f64)> = (0..self.z_m.len())
+        let rows: Vec<(f64, f64)> = (0..nz)
             .into_par_iter()
             .map_init(
                 || {
@@ -620,13 +583,13 @@ impl Das {
                     )
                 },
                 |(ttr, ttx, rtx), iz| {
-                    let z = self.z_m[iz];
                     let (mut gc, mut gp) = (0.0, 0.0);
-                    for (ix, &x) in self.x_m.iter().enumerate() {
+                    for ix in 0..nx {
+                        let px = self.pixel(iz, ix);
                         let p = (iz * nx + ix) * self.n_frames;
                         for t in 0..nt {
                             // Transmit time, its offset from sample 0 and its phase.
-                            let tt = (x * trig[t].0 + z * trig[t].1) / c;
+                            let tt = self.tx_time(t, px, &trig);
                             ttr[t] = tt;
                             ttx[t] = tt - self.t0_s[t];
                             if self.rotate {
@@ -635,12 +598,13 @@ impl Das {
                             }
                         }
                         for e in 0..ne {
-                            let Some((trx, rrx)) = self.rx(table, iz, ix, e) else {
+                            let Some((trx, rrx)) = self.rx(table, &els, iz, ix, e) else {
                                 continue;
                             };
-                            let dx = x - self.element_x(e);
-                            let r = (dx * dx + z * z).sqrt();
-                            let dtau_dp = -dx / (c * r.max(1e-300)) * (e as f64 - mid);
+                            let dx = px[0] - els[e].centre_m[0];
+                            let dz = px[1] - els[e].centre_m[1];
+                            let cr = c * (dx * dx + dz * dz).sqrt().max(1e-300);
+                            let dtau_dp = -dx / cr * del[e][0] + -dz / cr * del[e][1];
                             for t in 0..nt {
                                 let s = (ttx[t] + trx) * fs;
                                 let Some((i, fw)) = locate(s, ns) else {
@@ -672,20 +636,6 @@ impl Das {
         CalibrationGrad {
             d_sound_speed: gc,
             d_pitch: gp,
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::locate;
-
-    #[test]
-    fn locate_refuses_positions_outside_the_record() {
-        assert_eq!(locate(2.5, 4), Some((2, 0.5)));
-        assert_eq!(locate(0.0, 2), Some((0, 0.0)));
-        for s in [f64::NAN, -0.5, 3.0, 3.5, 1e300, f64::INFINITY, -1e300] {
-            assert_eq!(locate(s, 4), None, "{s}");
         }
     }
 }

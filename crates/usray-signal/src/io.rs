@@ -312,7 +312,7 @@ fn bad_field(v: &serde_json::Value) -> Option<String> {
     transmits.iter().enumerate().find_map(|(i, t)| {
         if de::<String>(t["kind"].clone()).is_err() {
             Some(format!("transmits[{i}].kind"))
-        } else if number(&t["angle_rad"]) {
+        } else if !t["angle_rad"].is_null() && number(&t["angle_rad"]) {
             Some(format!("transmits[{i}].angle_rad"))
         } else if !t["t0_s"].is_null() && number(&t["t0_s"]) {
             Some(format!("transmits[{i}].t0_s"))

@@ -8,11 +8,15 @@
 //!
 //! | module | operator |
 //! |---|---|
+//! | [`array`](mod@array) | element centres and normals of linear, phased and convex arrays |
+//! | [`transmit`] | plane, diverging and focused waves: delay laws and arrival times |
 //! | [`pulse`] | transmit pulse `s(t)` (paper eq. `axial_sig`), its derivative, convolution |
 //! | [`gain`] | depth-gain (time-gain) compensation |
 //! | [`filter`] | Butterworth low-/band-pass, zero-phase forward–backward |
 //! | [`demod`] | IQ demodulation at `f_c`, Hilbert analytic signal |
-//! | [`das`] | plane-wave delay-and-sum (paper eq. `das`), back-projection (eq. `das_adjoint`), calibration gradients (`c`, pitch) |
+//! | [`das`] | delay-and-sum (paper eq. `das`) for any array and transmit, back-projection (eq. `das_adjoint`), calibration gradients (`c`, pitch) |
+//! | [`grid`] | polar sector grids of phased and convex probes, bilinear scan conversion and its VJP |
+//! | [`imaging`] | imaging settings: grid, aperture, dynamic range, demodulation |
 //! | [`post`] | envelope, `20 log10`, normalisation, dynamic-range clip |
 //! | [`bmode`] | the composed operator `B` with one forward and one VJP call |
 //! | [`io`] | channel data and B-mode files, [`write_atomic`] |
@@ -77,6 +81,7 @@
 //! let g = b.vjp(&mut ws, &vec![1.0; img.data.len()]).unwrap();
 //! assert_eq!(g.len(), ch.samples.len());
 //! ```
+pub mod array;
 pub mod bmode;
 pub mod channels;
 pub mod das;
@@ -84,13 +89,16 @@ pub mod demod;
 pub mod error;
 pub mod filter;
 pub mod gain;
+pub mod grid;
 mod h5;
+pub mod imaging;
 pub mod import;
 pub mod io;
 pub mod mat;
 mod mat73;
 pub mod post;
 pub mod pulse;
+pub mod transmit;
 pub mod uff;
 
 pub use bmode::{BMode, Demod, Image, ImagingSettings, Workspace};

@@ -65,12 +65,20 @@ fn set(v: &mut serde_json::Value, key: &str, value: serde_json::Value) {
 fn sidecar_values_outside_their_physical_range_are_refused_naming_the_key() {
     let dir = tempfile::tempdir().unwrap();
     let cases: &[(&str, serde_json::Value, &str)] = &[
-        ("probe.kind", "convex".into(), "probe.kind"),
+        ("probe.kind", "sector".into(), "probe.kind"),
+        ("probe.kind", "convex".into(), "probe.radius_m"),
+        ("probe.radius_m", 1e-3.into(), "probe.radius_m"),
         ("probe.element_width_m", 0.0.into(), "element_width_m"),
         ("probe.element_width_m", (-1.0).into(), "element_width_m"),
         ("probe.element_width_m", 0.5e-3.into(), "element_width_m"),
         ("probe.pitch_m", 1e30.into(), "pitch_m"),
         ("transmits.1.angle_rad", 100.0.into(), "angle_rad"),
+        (
+            "transmits.1.kind",
+            "diverging".into(),
+            "transmits[1].virtual_source_m",
+        ),
+        ("transmits.1.kind", "synthetic".into(), "transmits[1].kind"),
         (
             "sampling_frequency_hz",
             1e300.into(),

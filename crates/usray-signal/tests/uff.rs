@@ -39,6 +39,40 @@ fn a_file_written_by_pyuff_ustb_imports_to_the_stated_channel_data() {
     assert_eq!(carried(imported), read_channels(&expected).unwrap());
 }
 
+/// A file pyuff_ustb wrote with two spherical waves (a virtual source behind
+/// the array, a focus in front of it; `tests/data/uff/`, made by
+/// `tests/python/uff_write_spherical.py`, committed so no Python runs here):
+/// usray imports them as a diverging and a focused transmit at those points,
+/// on USTB's clock, with the samples unchanged.
+#[test]
+fn spherical_waves_written_by_pyuff_ustb_import_as_diverging_and_focused() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/uff");
+    let (uff, expected) = (
+        data.join("spherical.uff"),
+        data.join("spherical_expected.json"),
+    );
+    let imported = import_uff(&uff).unwrap();
+    let expected = read_channels(&expected).unwrap();
+    assert_eq!(imported.samples, expected.samples);
+    assert_eq!(carried(imported.clone()).meta.probe, expected.meta.probe);
+    for (a, b) in imported.meta.transmits.iter().zip(&expected.meta.transmits) {
+        assert_eq!((&a.kind, a.t0_s), (&b.kind, b.t0_s));
+        let key = if a.kind == "diverging" {
+            "virtual_source_m"
+        } else {
+            "focus_m"
+        };
+        for k in 0..2 {
+            let (u, v) = (
+                a.extra[key][k].as_f64().unwrap(),
+                b.extra[key][k].as_f64().unwrap(),
+            );
+            assert!((u - v).abs() <= 1e-15, "{key}[{k}]: {u} vs {v}");
+        }
+    }
+    assert_eq!(imported.meta.transmits.len(), 2);
+}
+
 /// usray writes PyMUST's point-target channel data (3 angles, a t0 per transmit);
 /// pyuff_ustb reads back the rates, probe, angles, time origin and samples; usray
 /// imports the file to the same channel data.
@@ -200,6 +234,35 @@ fn irregular_frames_are_not_written() {
     let e = export_uff(&p, &ch).unwrap_err().to_string();
     assert!(e.contains("frame 1") && e.contains("frames.uff"), "{e}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+/// Convex probes and non-plane transmits are refused by the writer (it would
+/// otherwise write a linear array or a plane wave at angle 0), naming the key.
+#[test]
+fn convex_probes_and_circular_waves_are_not_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut convex = small();
+    convex.meta.probe.kind = "convex".into();
+    convex
+        .meta
+        .probe
+        .extra
+        .insert("radius_m".into(), 0.02.into());
+    let mut diverging = small();
+    diverging.meta.transmits[0].kind = "diverging".into();
+    diverging.meta.transmits[0]
+        .extra
+        .insert("virtual_source_m".into(), serde_json::json!([0.0, -0.01]));
+    for (ch, key) in [(convex, "probe.kind"), (diverging, "transmits[0].kind")] {
+        let p = dir.path().join("x.uff");
+        let e = export_uff(&p, &ch).unwrap_err().to_string();
+        assert!(e.contains(key) && e.contains("x.uff"), "{e}");
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    // A phased probe is a linear array geometrically: written.
+    let mut phased = small();
+    phased.meta.probe.kind = "phased".into();
+    export_uff(dir.path().join("phased.uff"), &phased).unwrap();
 }
 
 /// An option a UFF file's import does not use (the file states the clock,

@@ -27,7 +27,7 @@ pub fn run(command: &Command) -> anyhow::Result<()> {
             channels,
             scene,
             common,
-        } => beamform::run(channels, scene, common),
+        } => beamform::run(channels, scene.as_deref(), common),
         Command::Import {
             file,
             name,

@@ -6,7 +6,7 @@ use crate::plots::{bmode_figure, Grid};
 use anyhow::{Context, Result};
 use serde_json::json;
 use std::path::Path;
-use usray_signal::{write_channels, BMode, ChannelData};
+use usray_signal::{write_channels, BMode, ChannelData, ImagingSettings};
 use usray_transport::{render, AcquisitionPlan, Scene};
 
 /// Renders `scene` into `common.out`.
@@ -28,7 +28,12 @@ pub fn run(scene_path: &Path, sampling: &Sampling, common: &Common) -> Result<()
     let (channels, stats) = render(&scene, &opts)?;
     bar.finish_and_clear();
     write_channels(out.path("channels.json"), &channels)?;
-    let bmode = beamform_to(&scene, &channels, &out, &figure_title(scene_path))?;
+    let bmode = beamform_to(
+        &scene.imaging_settings(),
+        &channels,
+        &out,
+        &figure_title(scene_path),
+    )?;
     let info = json!({
         "scene": scene_path.display().to_string(),
         "seed": opts.seed.unwrap_or(scene.acquisition.seed),
@@ -59,22 +64,21 @@ pub fn figure_title(source: &Path) -> String {
     format!("B-mode of {}", name.to_string_lossy())
 }
 
-/// Forms the B-mode of `channels` on the scene's imaging grid and writes
+/// Forms the B-mode of `channels` on the grid of `settings` and writes
 /// `bmode.npy` (the data), `bmode.png` (one grey pixel per grid point) and the
 /// figure `bmode_figure.png`/`.svg` (mm axes, dB colour bar, `title`); returns
 /// `(nz, nx)`.
 pub fn beamform_to(
-    scene: &Scene,
+    settings: &ImagingSettings,
     channels: &ChannelData,
     out: &OutDir,
     title: &str,
 ) -> Result<(usize, usize)> {
-    let settings = scene.imaging_settings();
-    let op = BMode::new(&settings, &channels.meta, channels.n_samples)
-        .context("setting up the beamformer from the scene's [imaging]")?;
+    let op = BMode::new(settings, &channels.meta, channels.n_samples)
+        .context("setting up the beamformer from the imaging settings")?;
     let mut ws = op.workspace();
     let image = op.forward(channels, &mut ws)?;
-    let grid = Grid::from_settings(&settings)?;
+    let grid = Grid::from_settings(settings)?;
     let figure = |name: &str| {
         bmode_figure(
             &out.path(name),
