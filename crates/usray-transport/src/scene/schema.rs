@@ -135,9 +135,11 @@ pub enum Emission {
     /// emitters add as incoherent Monte Carlo noise that averages out slowly.
     /// The paper's model; ask for it with `emission = "cosine"`.
     Cosine,
-    /// Geometric-acoustics plane wave (the default): every ray leaves along the
-    /// steering direction `(sin θ, 0, cos θ)` with weight `f_d = cos θ` (paper
-    /// eq. `directivity` at that direction). No edge waves; far less noise.
+    /// Geometric-acoustics wave (the default): every ray leaves along the
+    /// transmitted wave's ray through its emission point (a plane wave's
+    /// steering direction `(sin θ, 0, cos θ)`; away from a virtual source;
+    /// towards a focus) with weight `f_d = n·ω` (paper eq. `directivity` at
+    /// that direction). No edge waves; far less noise.
     #[default]
     PlaneWave,
 }
