@@ -401,3 +401,24 @@ fn bad_arrays_and_transmits_name_their_key() {
         eprintln!("{e}");
     }
 }
+
+/// The channel file of a render carries the probe kind and radius and each
+/// transmit's kind and point, read back by usray-signal (what `usray
+/// beamform` does) as the scene's own geometry and waves.
+#[test]
+fn channel_metadata_carries_the_array_and_the_transmits() {
+    let s = scene(CONVEX, FOCUSED_AND_DIVERGING, 2, 1, CYLINDER);
+    let opts = RenderOptions {
+        threads: Some(1),
+        ..Default::default()
+    };
+    let meta = render(&s, &opts).unwrap().0.meta;
+    let array = usray_signal::array::ArrayGeometry::from_meta(&meta.probe).unwrap();
+    assert_eq!(array, s.array_geometry());
+    let waves: Vec<_> = (meta.transmits.iter().enumerate())
+        .map(|(i, t)| TransmitWave::from_meta(i, t).unwrap())
+        .collect();
+    assert_eq!(waves, s.transmit_waves());
+    assert!(matches!(waves[0], TransmitWave::Focused { .. }));
+    assert!(matches!(waves[1], TransmitWave::Diverging { .. }));
+}
