@@ -29,7 +29,7 @@ pub fn confirm_work(
     let rays = opts
         .rays_per_element
         .unwrap_or(scene.acquisition.rays_per_element) as f64;
-    let channels = scene.probe.n_elements as f64 * scene.acquisition.angles_deg.len() as f64;
+    let channels = scene.probe.n_elements as f64 * scene.n_transmits() as f64;
     let per_render = channels * rays;
     let total = renders * per_render;
     anyhow::ensure!(

@@ -178,10 +178,11 @@ impl<T: Real> ArrayGeometry<T> {
     pub fn element(&self, e: usize) -> Element<T> {
         let k = self.offset(e);
         if self.kind.is_flat() {
-            // Same expression as the beamformer's historic `element_x`, so flat
-            // arrays keep their bits.
+            // The historic `element_x` (`pitch·k`, in values the beamformer's
+            // `k·pitch` bit for bit), so flat arrays keep their bits in the
+            // tracer's derivatives too.
             return Element {
-                centre_m: [T::from_f64(k) * self.pitch_m, T::zero()],
+                centre_m: [self.pitch_m.scale(k), T::zero()],
                 normal: [T::zero(), T::one()],
             };
         }

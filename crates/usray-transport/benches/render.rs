@@ -105,7 +105,7 @@ fn main() {
     // Kinds: 0 primary (first ray of a path), 1 later path segment, 2 connection
     // (finite `t_max`).
     let mut kind = Vec::new();
-    for tx in 0..st.angles.len() {
+    for tx in 0..st.transmits.len() {
         for el in 0..st.n_elements {
             let stack = element_stack(&st, el);
             for r in 0..settings.rays_per_element {

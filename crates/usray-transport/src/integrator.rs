@@ -14,14 +14,17 @@
 //! direction), so a point scatterer's echo falls as `1/r²` in this model.
 //!
 //! # Path loop (pbrt-style)
-//! 1. Emit: point on the element face, cosine-hemisphere direction, time stamp
-//!    = plane-wave transmit delay of the element (CONTRACT §1).
+//! 1. Emit: point on the element face, a direction (`acquisition.emission`:
+//!    the transmit's propagation direction at the element, or the cosine
+//!    hemisphere about the element normal), time stamp = the element's firing
+//!    time in the transmit ([`usray_signal::transmit::TransmitWave`], CONTRACT §1).
 //! 2. Intersect the scene (values in `f64` by the geometry's BVH / roots, hit
 //!    distance, point and normal recomputed in `T`).
 //! 3. Before the hit, volume scatterers along the segment (if the medium has
-//!    them) send receiver connections; a ray travelling up that reaches the array
-//!    plane first deposits directly if it lands on an element face and its path
-//!    is purely specular so far.
+//!    them) send receiver connections; a ray that reaches the array's surface
+//!    first (the plane `z = 0`, or a convex array's arc:
+//!    [`crate::probe::array_surface_t`]) deposits directly if it lands on an
+//!    element face and its path is purely specular so far.
 //! 4. Advance: time `+= d/c` of the medium crossed, amplitude `×=` attenuation.
 //! 5. At the interface: the media on both sides from the medium stack; a
 //!    receiver connection if the interface is rough; then sample one microfacet
@@ -70,12 +73,14 @@ use crate::fresnel::fresnel;
 use crate::ggx::{Interface, SMOOTH_ALPHA};
 use crate::plan::SampleGrid;
 use crate::probe::{
-    cosine_hemisphere, element_at, element_x, transmit_delay, transmit_directivity, ReceiveLobe,
+    array_surface_t, centre3, cos_to_normal, cosine_hemisphere, distance_bound_m, element_at,
+    face_point, from_element_frame, transmit_directivity, ReceiveLobe,
 };
 use crate::rng::{dim, PathSampler};
 use crate::scene::{Emission, MaterialT, Sampler, SceneT};
 use usray_ad::Real;
 use usray_geometry::{Hit, MediumStack, Ray, Vec3};
+use usray_signal::transmit::TransmitWave;
 
 /// Closest distance (m) a ray may hit after leaving a surface: 0.1 µm, far below
 /// a wavelength (0.3 mm at 5 MHz) and above the f64 rounding of hit points.
@@ -212,11 +217,11 @@ struct Aim {
     wo: Vec3<f64>,
 }
 
-/// The unit direction from `p` to element `e`'s centre and the distance, in any
-/// number type (`PathCtx::aim` in values, `PathCtx::link` in `T`).
+/// The unit direction from `p` to the element centre `target` and the
+/// distance, in any number type (`PathCtx::aim` in values, `PathCtx::link` in
+/// `T`).
 #[inline]
-fn line<U: Real>(pitch: U, n_elements: usize, p: Vec3<U>, e: usize) -> (Vec3<U>, U) {
-    let target = Vec3::new(element_x(pitch, n_elements, e), U::zero(), U::zero());
+fn line<U: Real>(target: Vec3<U>, p: Vec3<U>) -> (Vec3<U>, U) {
     let v = target - p;
     let r = v.length();
     (v * r.recip(), r)
@@ -358,8 +363,11 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     #[inline]
     fn aim(&self, p: Vec3<f64>, e: usize, time: f64) -> Option<Aim> {
         let st = self.st;
-        let (wo, r) = line(st.pitch.value(), st.n_elements, p, e);
-        if r <= T_MIN || !self.lobe.may_receive(-wo.z) || self.late(time, r) {
+        let el = &st.elements[e];
+        let (wo, r) = line(centre3(el).to_f64(), p);
+        let n = [el.normal[0].value(), el.normal[1].value()];
+        let facing = cos_to_normal(st.array.kind, &n, wo);
+        if r <= T_MIN || !self.lobe.may_receive(-facing) || self.late(time, r) {
             return None;
         }
         Some(Aim { e, wo })
@@ -368,7 +376,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     /// The straight line from `p` to the element of `aim` in `T`.
     #[inline]
     fn link(&self, p: Vec3<T>, aim: &Aim) -> Link<T> {
-        let (wo, r) = line(self.st.pitch, self.st.n_elements, p, aim.e);
+        let (wo, r) = line(centre3(&self.st.elements[aim.e]), p);
         Link { e: aim.e, wo, r }
     }
 
@@ -397,7 +405,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             return;
         }
         let Link { e, wo, r } = *link;
-        let cos_e = -wo.z;
+        let cos_e = -cos_to_normal(st.array.kind, &st.elements[e].normal, wo);
         let fd = self.lobe.eval(cos_e);
         if fd.value() == 0.0 {
             return;
@@ -420,7 +428,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 );
                 amp *= k;
                 beta += b;
-                let solid = st.element_width * st.elevation * cos_e / (r * r);
+                let solid = st.array.element_width_m * st.elevation * cos_e / (r * r);
                 // Unobstructed: the continuation could have hit the element too.
                 let mis = if crossing == 0 && p_bsdf.value() > 0.0 {
                     power_heuristic((solid.scale(sel_w)).recip(), p_bsdf)
@@ -520,11 +528,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     }
 }
 
-/// The medium stack at element `el`'s centre on the array plane: the objects
-/// the element sits in (normally none). Emission points of an element share it.
+/// The medium stack at element `el`'s centre: the objects the element sits
+/// in (normally none). Emission points of an element share it.
 pub fn element_stack<T: Real>(st: &SceneT<T>, el: usize) -> MediumStack {
-    let xe = element_x(st.pitch, st.n_elements, el).value();
-    st.geometry.stack_at([xe, 0.0, 0.0])
+    st.geometry.stack_at(centre3(&st.elements[el]).value())
 }
 
 /// Trace one primary path (transmit `tx`, emitting element `el`, ray index `ray`)
@@ -661,38 +668,57 @@ fn trace<T: Real>(
     };
     let sampler =
         PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays);
-    let n_el = st.n_elements;
-
-    // Step 1: emission from the element face, cosine-weighted direction.
-    let xe = element_x(st.pitch, n_el, el);
+    // Step 1: emission from the element face, at the element's firing time.
+    let kind = st.array.kind;
+    let element = st.elements[el];
     let ux = sampler.uniform(0, dim::EMIT_X) - 0.5;
     let uy = sampler.uniform(0, dim::EMIT_Y) - 0.5;
-    let origin = Vec3::new(
-        xe + st.element_width.scale(ux),
-        st.elevation.scale(uy),
-        T::zero(),
+    let origin = face_point(
+        kind,
+        &element,
+        st.array.element_width_m,
+        st.elevation,
+        ux,
+        uy,
     );
-    let (dir, w) = match st.emission {
+    let wave = st.transmits[tx];
+    let c_img = st.imaging_sound_speed;
+    let firing_time = wave.element_delay_s(element.centre_m, c_img);
+    let (dir, w, time) = match st.emission {
         Emission::Cosine => {
             let dl = cosine_hemisphere(
                 sampler.uniform(0, dim::EMIT_U1),
                 sampler.uniform(0, dim::EMIT_U2),
             );
-            let dir = Vec3::from_f64s(dl);
-            // f_d(ω)/p(ω) with p = cos θ/π (a constant: the direction does not
-            // depend on parameters), normalised by π: value 1.
+            let dir = from_element_frame(kind, &element, dl);
+            // f_d(ω)/p(ω) with p = cos θ/π about the normal (constant in the
+            // element's frame), normalised by π: value 1.
             let pdf = dl[2] / core::f64::consts::PI;
             if pdf <= 0.0 {
                 return ctx.counters;
             }
-            let w = transmit_directivity(dir) / T::from_f64(pdf * core::f64::consts::PI);
-            (dir, w)
+            let w = transmit_directivity(kind, &element, dir)
+                / T::from_f64(pdf * core::f64::consts::PI);
+            // The element radiates as a whole at its firing time.
+            (dir, w, firing_time)
         }
         Emission::PlaneWave => {
-            // A collimated bundle along the steering direction, weight f_d = cos θ.
-            let a = st.angles[tx];
-            let dir = Vec3::new(a.sin(), T::zero(), a.cos());
-            (dir, transmit_directivity(dir))
+            // Along the wave's ray through the emission point, weight
+            // f_d = n·ω (paper eq. `directivity`). A plane wave's rays are
+            // parallel, so an element's beamlet returns onto one element's
+            // width and the face offset from the ideal front (±(w/2)·sin θ/c)
+            // averages out over the receiving face: its rays keep the
+            // element's firing time. A curved wave's rays fan out (or in),
+            // so one receiving element sees only part of an emitting face and
+            // the offset would not average out (up to ±0.9 sample measured
+            // on a convex array): each ray starts on the wave's front, at its
+            // arrival time at the emission point (in the imaging plane).
+            let dir = propagation_direction(&wave, origin);
+            let time = match wave {
+                TransmitWave::PlaneWave { .. } => firing_time,
+                _ => wave.arrival_time_s([origin.x, origin.z], c_img),
+            };
+            (dir, transmit_directivity(kind, &element, dir), time)
         }
     };
     // Branches still to trace, depth first (at most one pending sibling per
@@ -703,7 +729,7 @@ fn trace<T: Real>(
         dir,
         w,
         beta: T::zero(),
-        time: transmit_delay(xe, st.angles[tx], st.imaging_sound_speed),
+        time,
         stack: start_stack,
         specular_chain: true,
         last_rough: None,
@@ -715,6 +741,26 @@ fn trace<T: Real>(
         ctx.trace_branch(b, &mut pending);
     }
     ctx.counters
+}
+
+/// The direction a transmitted wave travels at the point `p` of an element's
+/// face: a plane wave along `(sin θ, 0, cos θ)`; a diverging wave away from
+/// its virtual source `v`, along `(p − v)` in the imaging plane; a focused
+/// wave towards its focus `f`, along `(f − p)` in that plane: the rays of the
+/// wavefronts of [`TransmitWave::arrival_time_s`], so an element's rays fan
+/// out or in with the wave and the elements' beamlets tile the field as a
+/// plane wave's do. The delays of a 1-D array shape the wave in `xz` only
+/// (CONTRACT §1's time models are 2-D): `v` and `f` are lines along `y`, and
+/// no ray turns in elevation, as for a plane wave.
+fn propagation_direction<T: Real>(wave: &TransmitWave<T>, p: Vec3<T>) -> Vec3<T> {
+    let in_plane = |dx: T, dz: T| Vec3::new(dx, T::zero(), dz).normalize();
+    match *wave {
+        TransmitWave::PlaneWave { angle_rad } => {
+            Vec3::new(angle_rad.sin(), T::zero(), angle_rad.cos())
+        }
+        TransmitWave::Diverging { source_m: [x, z] } => in_plane(p.x - x, p.z - z),
+        TransmitWave::Focused { focus_m: [x, z] } => in_plane(x - p.x, z - p.z),
+    }
 }
 
 impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
@@ -741,12 +787,8 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         // Step 2: the next interface.
         let r = Ray::new(origin, dir);
         let hit = self.intersect(&r, f64::INFINITY);
-        // The array plane z = 0, reached first by a ray travelling up.
-        let t_array = if dir.z.value() < 0.0 {
-            -origin.z / dir.z
-        } else {
-            T::from_f64(f64::INFINITY)
-        };
+        // The array's surface (the plane z = 0 or a convex arc), if reached.
+        let t_array = array_surface_t(&st.array, origin, dir);
         let hit_first = hit.as_ref().is_some_and(|h| h.t.value() < t_array.value());
         let seg_len = match (&hit, hit_first) {
             (Some(h), true) => h.t.value(),
@@ -768,25 +810,25 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             if t_array.value().is_finite() && direct && stack.is_empty() {
                 let p = r.at(t_array);
                 let pv = p.value();
-                if let Some(e) =
-                    element_at(pv[0], pv[1], st.pitch, st.element_width, st.elevation, n_el)
-                {
+                if let Some(e) = element_at(&st.array, st.elevation, pv) {
+                    let element = &st.elements[e];
                     // After a rough vertex: MIS against its receiver connection
                     // (density 1/(sel_w·Ω_e) of the element's solid angle).
                     let mis = match last_rough {
                         Some(p_b) if !specular_chain => {
-                            let target =
-                                Vec3::new(element_x(st.pitch, n_el, e), T::zero(), T::zero());
-                            let v = target - origin;
+                            let v = centre3(element) - origin;
                             let r2 = v.length_squared();
-                            let cos_e = -v.z / r2.sqrt();
-                            let solid = st.element_width * st.elevation * cos_e / r2;
+                            let cos_e =
+                                -cos_to_normal(st.array.kind, &element.normal, v) / r2.sqrt();
+                            let solid = st.array.element_width_m * st.elevation * cos_e / r2;
                             let sel_w = settings.receiver_weight(n_el, e);
                             power_heuristic(p_b, solid.scale(sel_w).recip())
                         }
                         _ => T::one(),
                     };
-                    let fd = self.lobe.eval(-dir.z);
+                    let fd = self
+                        .lobe
+                        .eval(-cos_to_normal(st.array.kind, &element.normal, dir));
                     let tau = time + t_array / medium.sound_speed;
                     let (k, b) = attenuation_and_exponent(
                         medium.attenuation_db_cm_mhz,
@@ -809,9 +851,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             return;
         }
         // Whatever this vertex and its continuations deposit still has to reach
-        // the array plane z = 0, at least the vertex's depth away: past the
-        // horizon, none of it would be kept.
-        if self.vertex_late(time.value(), hit.point.z.value().abs()) {
+        // the array, at least `distance_bound_m` away: past the horizon, none
+        // of it would be kept.
+        let to_array = distance_bound_m(&st.array, hit.point.z.value());
+        if self.vertex_late(time.value(), to_array) {
             return;
         }
 

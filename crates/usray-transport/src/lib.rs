@@ -70,8 +70,9 @@
 //!   continuations at every interface (no reflect-or-transmit choice; see
 //!   [`ggx::Interface::scatter`]). Spreading is carried by ray density; receiver
 //!   connections use the element's solid angle `A_e cos θ_e / r²`.
-//! - **Emission** (`acquisition.emission`): `"plane_wave"` (default: a
-//!   collimated bundle along the steering direction, weight `cos θ`) or
+//! - **Emission** (`acquisition.emission`): `"plane_wave"` (default: rays
+//!   along the transmitted wave's rays, a collimated bundle along the
+//!   steering direction for a plane wave, weight `n·ω`) or
 //!   `"cosine"` (the paper's element lobe `max(0, n·ω)` importance-sampled on
 //!   the full 3-D cosine-weighted hemisphere: no restriction in elevation; the
 //!   cosine model leaves incoherent off-axis echoes

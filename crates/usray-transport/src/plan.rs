@@ -6,24 +6,25 @@
 //!
 //! The plan holds values (`f64`). The tracer, which differentiates element
 //! positions and transmit delays, evaluates the same formulas in `T` from the
-//! lifted scene: each formula exists once, in [`crate::probe`]
-//! ([`element_x`] for the positions, [`transmit_delay`] for the plane-wave
-//! delay), and the plan's values are those formulas at the scene's values.
-//! A new array geometry or transmit adds its formula to [`crate::probe`], its
-//! variant to [`DelayModel`] (or the element list) here, and nothing else
-//! derives it.
+//! lifted scene: each formula exists once, in `usray_signal`
+//! ([`ArrayGeometry::element`] for element centres and normals,
+//! [`TransmitWave::element_delay_s`] for the firing times), and the plan's
+//! values are those formulas at the scene's values
+//! ([`Scene::array_geometry`], [`Scene::transmit_waves`]).
 //!
 //! # The sample grid
-//! `t0_s = 0` on the clock of CONTRACT §1 (sample 0 is the instant the plane
-//! wavefront passes the array centre); `n_samples = ⌈f_s·(2·max_depth/c +
-//! max_e |x_e sin θ|/c + 4√σ)⌉ + 1` with `c` the imaging speed (the scanner's
-//! record length) and `4√σ` the pulse half-support
-//! ([`usray_signal::pulse::pulse_support_s`]). Echoes from steered transmits
-//! that arrive before `t = 0` (near-field, negative `x·sin θ`) are cut.
+//! `t0_s = 0` on the clock of CONTRACT §1 (sample 0 is the instant the
+//! wavefront passes the probe-frame origin); `n_samples = ⌈f_s·(2·max_depth/c +
+//! max_{e,tx} |t_tx(e)| + 4√σ)⌉ + 1` with `c` the imaging speed (the scanner's
+//! record length), `t_tx(e)` element `e`'s firing time in transmit `tx`
+//! (plane waves: `x_e sin θ/c`) and `4√σ` the pulse half-support
+//! ([`usray_signal::pulse::pulse_support_s`]). Echoes that arrive before
+//! `t = 0` (near-field, negative `x·sin θ`) are cut.
 
-use crate::probe::{element_x, transmit_delay};
 use crate::scene::Scene;
 use usray_ad::{Dual, Real};
+use usray_signal::array::ArrayGeometry;
+use usray_signal::transmit::TransmitWave;
 use usray_signal::{ChannelMeta, ProbeMeta, TransmitMeta};
 
 /// One element of the array in the imaging plane (CONTRACT §1 frame).
@@ -35,46 +36,21 @@ pub struct Element {
     pub normal: [f64; 2],
 }
 
-/// When the elements of one transmit fire.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum DelayModel {
-    /// A plane wave steered by `angle_rad` from `+z` towards `+x`: an element
-    /// at `x` fires at `x·sin θ / c` ([`transmit_delay`]), so the wavefront
-    /// passes `(0, 0)` at `t = 0`.
-    PlaneWave {
-        /// Steering angle, radians.
-        angle_rad: f64,
-    },
+/// One transmit (one record per element).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Transmit {
+    /// The wave, whose arrival time at an element is that element's firing
+    /// time ([`TransmitWave::element_delay_s`]).
+    pub wave: TransmitWave<f64>,
+    /// Its entry in the channel metadata (CONTRACT §2).
+    meta: TransmitMeta,
 }
 
-impl DelayModel {
+impl Transmit {
     /// The firing time (s) of `element` with `c` the speed the scanner assumes.
     pub fn delay_s(&self, element: &Element, c: f64) -> f64 {
-        match *self {
-            DelayModel::PlaneWave { angle_rad } => {
-                transmit_delay(element.position_m[0], angle_rad, c)
-            }
-        }
+        self.wave.element_delay_s(element.position_m, c)
     }
-
-    /// The transmit's entry in the channel metadata (CONTRACT §2).
-    fn meta(&self) -> TransmitMeta {
-        match *self {
-            DelayModel::PlaneWave { angle_rad } => TransmitMeta {
-                kind: "plane_wave".into(),
-                angle_rad,
-                t0_s: None,
-                extra: Default::default(),
-            },
-        }
-    }
-}
-
-/// One transmit (one record per element).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Transmit {
-    /// When its elements fire.
-    pub delay: DelayModel,
 }
 
 /// The sample grid of every record.
@@ -225,13 +201,7 @@ impl AcquisitionPlan {
                 shift_nodes,
             },
             imaging_sound_speed_m_s: c,
-            probe: ProbeMeta {
-                kind: p.kind.clone(),
-                n_elements: p.n_elements,
-                pitch_m: p.pitch_m,
-                element_width_m: p.element_width_m,
-                extra: Default::default(),
-            },
+            probe: scene.probe_meta(),
         }
     }
 
@@ -249,31 +219,29 @@ impl AcquisitionPlan {
             sound_speed_m_s: self.imaging_sound_speed_m_s,
             center_frequency_hz: self.pulse.center_frequency_hz,
             probe: self.probe.clone(),
-            transmits: self.transmits.iter().map(|t| t.delay.meta()).collect(),
+            transmits: self.transmits.iter().map(|t| t.meta.clone()).collect(),
             extra: Default::default(),
         }
     }
 }
 
-/// The elements (positions by [`element_x`], the one formula) and the
+/// The elements ([`ArrayGeometry::element`], the one formula) and the
 /// transmits of a scene.
 fn layout(scene: &Scene) -> (Vec<Element>, Vec<Transmit>) {
-    let p = &scene.probe;
-    let elements = (0..p.n_elements)
+    let array: ArrayGeometry<f64> = scene.array_geometry();
+    let elements = array
+        .elements()
+        .into_iter()
         .map(|e| Element {
-            position_m: [element_x(p.pitch_m, p.n_elements, e), 0.0],
-            normal: [0.0, 1.0],
+            position_m: e.centre_m,
+            normal: e.normal,
         })
         .collect();
     let transmits = scene
-        .acquisition
-        .angles_deg
-        .iter()
-        .map(|d| Transmit {
-            delay: DelayModel::PlaneWave {
-                angle_rad: d.to_radians(),
-            },
-        })
+        .transmit_waves()
+        .into_iter()
+        .zip(scene.transmit_metas())
+        .map(|(wave, meta)| Transmit { wave, meta })
         .collect();
     (elements, transmits)
 }
@@ -302,7 +270,7 @@ fn record_duration_s_of(scene: &Scene, max_delay_s: f64) -> f64 {
 fn max_transmit_delay_s(elements: &[Element], transmits: &[Transmit], c: f64) -> f64 {
     transmits
         .iter()
-        .flat_map(|t| elements.iter().map(|e| t.delay.delay_s(e, c).abs()))
+        .flat_map(|t| elements.iter().map(|e| t.delay_s(e, c).abs()))
         .fold(0.0, f64::max)
 }
 

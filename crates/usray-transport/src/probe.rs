@@ -1,23 +1,81 @@
-//! The linear array (CONTRACT §1): element positions, emission sampling, transmit
-//! delays and the two directivities.
+//! The array as the tracer sees it (CONTRACT §1 frame: `x` lateral, `y`
+//! elevation, `z` depth): element faces, emission directions, the two
+//! directivities about each element's normal, and where a ray returning to
+//! the probe lands.
 //!
-//! Frame: `x` lateral along the array, `y` elevation, `z` depth; element centres at
-//! `x_e = (e − (N−1)/2)·pitch`, `y = z = 0`; every element's normal is `+z`.
+//! Element centres and normals come from one place,
+//! [`usray_signal::array::ArrayGeometry::element`] (linear and phased arrays:
+//! centres on `z = 0`, normal `+z`; convex arrays: centres on the arc of
+//! radius `R` about `(0, −h)`, normals radial), evaluated once per lifted
+//! scene ([`crate::scene::SceneT::elements`]). An element's face is the
+//! rectangle `element_width_m` (along the tangent `t = (n_z, 0, −n_x)`) ×
+//! `elevation_m` (along `y`) about its centre, facing its normal `n`.
 //!
 //! **Elevation.** Emission points are sampled uniformly over each element's
-//! face (`element_width_m` × `elevation_m`), and emission directions over the
-//! full 3-D cosine-weighted hemisphere (no restriction in elevation): scenes are
-//! 3-D; a cylinder along `y` is infinite, so out-of-plane rays see the same
-//! cross-section tilted, and rays leaving the elevation slab simply miss the
-//! receivers.
+//! face, and emission directions over the full 3-D cosine-weighted hemisphere
+//! about its normal (no restriction in elevation): scenes are 3-D; a cylinder
+//! along `y` is infinite, so out-of-plane rays see the same cross-section
+//! tilted, and rays leaving the elevation slab simply miss the receivers.
+//!
+//! Flat arrays keep the historic expressions (`x` offsets along `+x`, `n·ω =
+//! ω_z`) bit for bit; the general ones reduce to them for `n = (0, 1)` only up
+//! to the sign of zeros, so each function branches once on
+//! [`ArrayKind::is_flat`].
 
 use usray_ad::Real;
 use usray_geometry::Vec3;
+use usray_signal::array::{ArrayGeometry, ArrayKind, Element};
 
-/// `x` of element `e`'s centre, metres: `(e − (N−1)/2)·pitch`.
+/// Element centre in 3-D (`y = 0`), m.
 #[inline]
-pub fn element_x<T: Real>(pitch: T, n_elements: usize, e: usize) -> T {
-    pitch.scale(e as f64 - (n_elements as f64 - 1.0) * 0.5)
+pub fn centre3<T: Real>(el: &Element<T>) -> Vec3<T> {
+    Vec3::new(el.centre_m[0], T::zero(), el.centre_m[1])
+}
+
+/// `n·ω`: the cosine between an element's normal `n = (n_x, n_z)` and direction `ω` (for a flat
+/// array `ω_z`).
+#[inline]
+pub fn cos_to_normal<T: Real>(kind: ArrayKind, normal: &[T; 2], dir: Vec3<T>) -> T {
+    if kind.is_flat() {
+        dir.z
+    } else {
+        normal[0] * dir.x + normal[1] * dir.z
+    }
+}
+
+/// The point of element `el`'s face at the offsets `(u_t, u_y) ∈ [−½, ½]²`
+/// of its width (along the tangent) and elevation, m.
+#[inline]
+pub fn face_point<T: Real>(
+    kind: ArrayKind,
+    el: &Element<T>,
+    width: T,
+    elevation: T,
+    u_t: f64,
+    u_y: f64,
+) -> Vec3<T> {
+    let y = elevation.scale(u_y);
+    if kind.is_flat() {
+        return Vec3::new(el.centre_m[0] + width.scale(u_t), y, T::zero());
+    }
+    let s = width.scale(u_t);
+    Vec3::new(
+        el.centre_m[0] + el.normal[1] * s,
+        y,
+        el.centre_m[1] - el.normal[0] * s,
+    )
+}
+
+/// The direction with components `local = (a, b, c)` along element `el`'s
+/// tangent, `y` and normal (a flat array's frame is the world frame).
+#[inline]
+pub fn from_element_frame<T: Real>(kind: ArrayKind, el: &Element<T>, local: [f64; 3]) -> Vec3<T> {
+    if kind.is_flat() {
+        return Vec3::from_f64s(local);
+    }
+    let [n_x, n_z] = el.normal;
+    let (a, c) = (T::from_f64(local[0]), T::from_f64(local[2]));
+    Vec3::new(n_z * a + n_x * c, T::from_f64(local[1]), n_z * c - n_x * a)
 }
 
 /// Cosine-weighted direction on the `+z` hemisphere from two uniforms (Malley's
@@ -29,16 +87,16 @@ pub fn cosine_hemisphere(u1: f64, u2: f64) -> [f64; 3] {
     [r * phi.cos(), r * phi.sin(), (1.0 - u1).max(0.0).sqrt()]
 }
 
-/// Transmit directivity, paper eq. `directivity`: `f_d = max(0, n·ω)` with
-/// `n = +z`, so `f_d = max(0, ω_z)` (dimensionless).
+/// Transmit directivity, paper eq. `directivity`: `f_d = max(0, n·ω)` about
+/// element `el`'s normal `n` (dimensionless).
 #[inline]
-pub fn transmit_directivity<T: Real>(dir: Vec3<T>) -> T {
-    dir.z.max(T::zero())
+pub fn transmit_directivity<T: Real>(kind: ArrayKind, el: &Element<T>, dir: Vec3<T>) -> T {
+    cos_to_normal(kind, &el.normal, dir).max(T::zero())
 }
 
 /// Receive directivity, paper eq. `cutoff`: with `α = arccos(n·ω)` the angle
 /// between the element normal and the direction back towards the source
-/// (`cos_alpha = −d_z` for an arriving propagation direction `d`), `1` inside the
+/// (`cos_alpha = −n·d` for an arriving propagation direction `d`), `1` inside the
 /// main lobe `α_m`, falling linearly to `0` at the cutoff `α_c`, `0` beyond.
 #[inline]
 pub fn receive_directivity<T: Real>(cos_alpha: T, main_lobe: T, cutoff: T) -> T {
@@ -97,53 +155,138 @@ impl<T: Real> ReceiveLobe<T> {
     }
 }
 
-/// Plane-wave transmit delay of an element at lateral position `x` (CONTRACT §1):
-/// it fires at `x·sin θ / c` seconds so that the wavefront passes `(0, 0)` at
-/// `t = 0`. `c` is the speed the scanner assumes (`imaging.sound_speed_m_s`).
-#[inline]
-pub fn transmit_delay<T: Real>(x: T, angle: T, c: T) -> T {
-    x * angle.sin() / c
+/// Where a ray `origin + t·dir` (unit `dir`) travelling from the medium
+/// first reaches the array's surface, `t` in m (`+∞` if never): for a flat
+/// array the plane `z = 0` when travelling up (`−o_z/d_z`); for a convex one
+/// the cylinder of radius `R` about the axis through `(0, −h)` along `y`
+/// (entered from outside: the smaller root of `|o' + t·d'|² = R²` in the
+/// `xz` plane, `o' = (o_x, o_z + h)`), when the point lies within the arc's
+/// span (beyond its end elements there is no probe).
+pub fn array_surface_t<T: Real>(a: &ArrayGeometry<T>, origin: Vec3<T>, dir: Vec3<T>) -> T {
+    let never = T::from_f64(f64::INFINITY);
+    if a.kind.is_flat() {
+        return if dir.z.value() < 0.0 {
+            -origin.z / dir.z
+        } else {
+            never
+        };
+    }
+    let (ox, oz) = (origin.x, origin.z + a.apothem_m());
+    let qa = dir.x * dir.x + dir.z * dir.z;
+    let qb = ox * dir.x + oz * dir.z;
+    let qc = ox * ox + oz * oz - a.radius_m * a.radius_m;
+    let disc = qb * qb - qa * qc;
+    if qc.value() <= 0.0 || qb.value() >= 0.0 || disc.value() < 0.0 || qa.value() == 0.0 {
+        return never; // inside the arc, moving away, or missing it
+    }
+    let t = (-qb - disc.sqrt()) / qa;
+    let half_span = a.angular_pitch_rad().value() * (a.n_elements as f64 * 0.5);
+    let theta = (ox + dir.x * t).value().atan2((oz + dir.z * t).value());
+    if theta.abs() > half_span {
+        return never;
+    }
+    t
 }
 
-/// The element whose face contains the point `(x, y)` on the array plane.
-pub fn element_at<T: Real>(
-    x: f64,
-    y: f64,
-    pitch: T,
-    width: T,
-    elevation: T,
-    n_elements: usize,
-) -> Option<usize> {
-    let (p, w, el) = (pitch.value(), width.value(), elevation.value());
-    if y.abs() > 0.5 * el {
+/// The element whose face contains the point `p` on the array's surface
+/// ([`array_surface_t`]). Flat arrays: nearest centre along `x`, `|x − x_e| ≤
+/// w/2`; convex arrays: nearest centre in angle about `(0, −h)`, arc length
+/// `R·|θ − θ_e| ≤ w/2`. Both: `|y| ≤ elevation/2`.
+pub fn element_at<T: Real>(a: &ArrayGeometry<T>, elevation: T, p: [f64; 3]) -> Option<usize> {
+    let (pitch, w, n) = (a.pitch_m.value(), a.element_width_m.value(), a.n_elements);
+    if p[1].abs() > 0.5 * elevation.value() {
         return None;
     }
-    let k = (x / p + (n_elements as f64 - 1.0) * 0.5).round();
-    if !(k >= 0.0 && k < n_elements as f64) {
+    let centre = (n as f64 - 1.0) * 0.5;
+    if a.kind.is_flat() {
+        let k = (p[0] / pitch + centre).round();
+        if !(k >= 0.0 && k < n as f64) {
+            return None;
+        }
+        let e = k as usize;
+        let xe = pitch * (e as f64 - centre);
+        return ((p[0] - xe).abs() <= 0.5 * w).then_some(e);
+    }
+    let delta = a.angular_pitch_rad().value();
+    let theta = p[0].atan2(p[2] + a.apothem_m().value());
+    let k = (theta / delta + centre).round();
+    if !(k >= 0.0 && k < n as f64) {
         return None;
     }
     let e = k as usize;
-    let xe = element_x(pitch, n_elements, e).value();
-    ((x - xe).abs() <= 0.5 * w).then_some(e)
+    let arc = a.radius_m.value() * (theta - delta * (e as f64 - centre)).abs();
+    (arc <= 0.5 * w).then_some(e)
+}
+
+/// A lower bound on the distance (m) from a point at depth `z` to any point
+/// of the array's surface: `|z|` for a flat array, `z − (R − h)` (at least 0)
+/// for a convex one, whose arc bulges down to `z = R − h`.
+#[inline]
+pub fn distance_bound_m<T: Real>(a: &ArrayGeometry<T>, z: f64) -> f64 {
+    if a.kind.is_flat() {
+        z.abs()
+    } else {
+        (z - (a.radius_m - a.apothem_m()).value()).max(0.0)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn linear() -> ArrayGeometry<f64> {
+        ArrayGeometry {
+            kind: ArrayKind::Linear,
+            n_elements: 128,
+            pitch_m: 0.3e-3,
+            element_width_m: 0.27e-3,
+            radius_m: f64::INFINITY,
+        }
+    }
+
     #[test]
     fn geometry_and_directivity() {
-        assert_eq!(element_x(0.3e-3_f64, 128, 0), -63.5 * 0.3e-3);
-        assert_eq!(
-            element_at(0.15e-3 - 1e-6, 0.0, 0.3e-3_f64, 0.27e-3, 4e-3, 128),
-            Some(64)
-        );
-        assert_eq!(element_at(0.0, 0.0, 0.3e-3_f64, 0.27e-3, 4e-3, 128), None); // kerf
+        let a = linear();
+        assert_eq!(element_at(&a, 4e-3, [0.15e-3 - 1e-6, 0.0, 0.0]), Some(64));
+        assert_eq!(element_at(&a, 4e-3, [0.0, 0.0, 0.0]), None); // kerf
         let (m, c) = (5f64.to_radians(), 60f64.to_radians());
         assert_eq!(receive_directivity(1.0_f64, m, c), 1.0);
         assert!((receive_directivity(32.5f64.to_radians().cos(), m, c) - 0.5).abs() < 1e-9);
         assert_eq!(receive_directivity(70f64.to_radians().cos(), m, c), 0.0);
         let d = cosine_hemisphere(0.3, 0.7);
         assert!(((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - 1.0).abs() < 1e-12);
+    }
+
+    /// A convex array: a ray aimed at an element centre along minus its
+    /// normal lands on that element's face at distance `d`, a face point
+    /// lies on the element's tangent, and the local frame is orthonormal.
+    #[test]
+    fn convex_surface_hits_the_element_it_aims_at() {
+        let a = ArrayGeometry {
+            kind: ArrayKind::Convex,
+            n_elements: 64,
+            pitch_m: 0.5e-3,
+            element_width_m: 0.45e-3,
+            radius_m: 40e-3,
+        };
+        for e in [0, 5, 31, 32, 63] {
+            let el = a.element(e);
+            let n = Vec3::new(el.normal[0], 0.0, el.normal[1]);
+            let d = 0.02;
+            let o = centre3(&el) + n * d;
+            let t = array_surface_t(&a, o, -n);
+            assert!((t - d).abs() < 1e-12, "{e}: {t}");
+            let p = (o - n * t).value();
+            assert_eq!(element_at(&a, 4e-3, p), Some(e));
+            let f = face_point(a.kind, &el, a.element_width_m, 4e-3, 0.5, 0.0);
+            assert!(((f - centre3(&el)).dot(n)).abs() < 1e-15);
+            assert!(((f - centre3(&el)).length() - 0.225e-3).abs() < 1e-15);
+            let w = from_element_frame(a.kind, &el, [0.6, 0.0, 0.8]);
+            assert!((w.length() - 1.0).abs() < 1e-15);
+            assert!((cos_to_normal(a.kind, &el.normal, w) - 0.8).abs() < 1e-15);
+        }
+        // Beyond the end elements there is no probe.
+        let o = Vec3::<f64>::new(0.03, 0.0, 0.01);
+        assert!(array_surface_t(&a, o, Vec3::new(0.0, 0.0, -1.0)).is_infinite());
     }
 }

@@ -134,7 +134,7 @@ pub fn trace_all<T: Real>(
 ) -> (Vec<Vec<Deposit<T>>>, TraceCounters, u64) {
     let s = settings(scene, opts);
     let n_el = st.n_elements;
-    let n_tx = st.angles.len();
+    let n_tx = st.transmits.len();
     let chunks: Vec<(Vec<Deposit<T>>, TraceCounters)> = in_pool(opts.threads, || {
         (0..n_tx * n_el)
             .into_par_iter()

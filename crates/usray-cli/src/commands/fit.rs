@@ -114,7 +114,7 @@ pub fn parse_truth(specs: &[ParamSpec], entries: &[String]) -> Result<Vec<Option
 
 /// Splits the scene's transmits into `n` contiguous micro-batches.
 pub fn set_batches(objective: &mut Objective, n: usize) -> Result<()> {
-    let n_tx = objective.scene.acquisition.angles_deg.len();
+    let n_tx = objective.scene.n_transmits();
     anyhow::ensure!(
         n >= 1 && n <= n_tx,
         "--batches must lie in 1..={n_tx} (the scene's transmits)"

@@ -10,6 +10,8 @@ use usray_geometry::shapes::hollow_cylinder::HollowCylinder;
 use usray_geometry::shapes::slab::Slab;
 use usray_geometry::shapes::sphere::Sphere;
 use usray_geometry::{Geometry, MeshInstance, TriangleMesh, Vec3};
+use usray_signal::array::{ArrayGeometry, Element};
+use usray_signal::transmit::TransmitWave;
 
 /// Acoustic properties of one medium, in `T`.
 #[derive(Clone, Copy, Debug)]
@@ -47,10 +49,12 @@ pub struct SceneT<T> {
     pub geometry: Geometry<T>,
     /// Number of elements.
     pub n_elements: usize,
-    /// Element pitch, m.
-    pub pitch: T,
-    /// Element width, m.
-    pub element_width: T,
+    /// The array: kind, pitch, element width and convex radius, m
+    /// (`usray_signal::array`; element centres and normals from it alone).
+    pub array: ArrayGeometry<T>,
+    /// Every element's centre and normal ([`ArrayGeometry::elements`]),
+    /// evaluated once here.
+    pub elements: Vec<Element<T>>,
     /// Element elevation extent, m.
     pub elevation: T,
     /// Centre frequency, Hz.
@@ -68,8 +72,9 @@ pub struct SceneT<T> {
     pub main_lobe: T,
     /// Receive cutoff, radians.
     pub cutoff: T,
-    /// Steering angles, radians.
-    pub angles: Vec<T>,
+    /// The transmitted waves in acquisition order (`usray_signal::transmit`:
+    /// each element's firing time).
+    pub transmits: Vec<TransmitWave<T>>,
     /// Sampling frequency, Hz (a plain number: it fixes the sample grid).
     pub fs: f64,
     /// Depth gain, dB/cm.
@@ -209,13 +214,14 @@ impl Scene {
             });
         }
         let (center_frequency, cycles) = (get("probe.center_frequency_hz"), get("probe.cycles"));
+        let array = self.array_geometry_t(get);
         Ok(SceneT {
             medium: material("medium", false),
             objects,
             geometry,
             n_elements: self.probe.n_elements,
-            pitch: get("probe.pitch_m"),
-            element_width: get("probe.element_width_m"),
+            array,
+            elements: array.elements(),
             elevation: get("probe.elevation_m"),
             center_frequency,
             cycles,
@@ -223,9 +229,7 @@ impl Scene {
             max_shift: crate::downshift::max_shift(center_frequency.value(), cycles.value()),
             main_lobe: get("probe.main_lobe_deg") * deg,
             cutoff: get("probe.cutoff_deg") * deg,
-            angles: (0..self.acquisition.angles_deg.len())
-                .map(|i| get(&format!("acquisition.angles_deg.{i}")) * deg)
-                .collect(),
+            transmits: self.transmit_waves_t(get),
             fs: self.acquisition.sampling_frequency_hz,
             depth_gain_db_per_cm: get("acquisition.depth_gain_db_per_cm"),
             imaging_sound_speed: match self.imaging.sound_speed_m_s {

@@ -7,6 +7,7 @@
 //! [`params`]), and [`Scene::lift`] builds the numeric state the tracer uses in
 //! any `T: Real`, with chosen parameters seeded as AD variables.
 
+mod acquisition;
 mod imaging;
 mod lift;
 pub mod params;
@@ -15,6 +16,7 @@ mod schema;
 pub use lift::{MaterialT, ObjectT, SceneT};
 pub use schema::{
     limits, Acquisition, Emission, Imaging, Material, Medium, Object, Probe, Sampler, ShapeKind,
+    TransmitSpec,
 };
 
 use std::collections::BTreeMap;

@@ -3,7 +3,9 @@
 //! The form is `TABLE.KEY` for the top-level tables, `materials.NAME.KEY`,
 //! `objects.NAME.KEY` (NAME is the object's `name`), and a trailing `.I` for a
 //! component of an array (`objects.cylinder.center_m.2` is the cylinder's depth,
-//! `acquisition.angles_deg.0` the first steering angle). Integers (`n_elements`,
+//! `acquisition.angles_deg.0` the first steering angle,
+//! `acquisition.transmits.1.focus_m.1` the depth of the second listed
+//! transmit's focus). Integers (`n_elements`,
 //! `rays_per_element`, `max_bounces`, `seed`) and strings are not parameters.
 //! Optional keys are parameters only when present in the scene.
 //!
@@ -36,9 +38,28 @@ impl Scene {
         f("probe.main_lobe_deg", &mut p.main_lobe_deg);
         f("probe.cutoff_deg", &mut p.cutoff_deg);
         f("probe.elevation_m", &mut p.elevation_m);
+        if let Some(r) = p.radius_m.as_mut() {
+            f("probe.radius_m", r);
+        }
         let a = &mut self.acquisition;
         for (i, v) in a.angles_deg.iter_mut().enumerate() {
             f(&format!("acquisition.angles_deg.{i}"), v);
+        }
+        for (i, t) in a.transmits.iter_mut().enumerate() {
+            let k = |leaf: &str| format!("acquisition.transmits.{i}.{leaf}");
+            if let Some(v) = t.angle_deg.as_mut() {
+                f(&k("angle_deg"), v);
+            }
+            for (key, point) in [
+                ("virtual_source_m", &mut t.virtual_source_m),
+                ("focus_m", &mut t.focus_m),
+            ] {
+                if let Some(point) = point.as_mut() {
+                    for (j, v) in point.iter_mut().enumerate() {
+                        f(&k(&format!("{key}.{j}")), v);
+                    }
+                }
+            }
         }
         f(
             "acquisition.sampling_frequency_hz",

@@ -17,12 +17,17 @@ pub struct Medium {
     pub attenuation_db_cm_mhz: f64,
 }
 
-/// `[probe]`: a linear array (CONTRACT §1 frame).
+/// `[probe]`: a linear, phased or convex array (CONTRACT §1 frame; the
+/// geometry of `usray_signal::array`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Probe {
-    /// Array kind; only `"linear"`.
+    /// Array kind: `"linear"`, `"phased"` or `"convex"` (`usray_signal::array::ArrayKind`).
     pub kind: String,
+    /// Radius of curvature of a convex array, metres (required for
+    /// `"convex"`, refused for the flat kinds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius_m: Option<f64>,
     /// Number of elements.
     pub n_elements: usize,
     /// Centre-to-centre spacing, metres.
@@ -50,8 +55,14 @@ fn default_elevation() -> f64 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Acquisition {
-    /// Plane-wave steering angles, degrees.
+    /// Plane-wave steering angles, degrees: shorthand for plane-wave
+    /// transmits, fired before those of `transmits`.
+    #[serde(default)]
     pub angles_deg: Vec<f64>,
+    /// Transmits of any kind (`[[acquisition.transmits]]`), after the plane
+    /// waves of `angles_deg`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub transmits: Vec<TransmitSpec>,
     /// Sampling frequency, hertz.
     pub sampling_frequency_hz: f64,
     /// Deepest point recorded (two-way), metres.
@@ -79,6 +90,34 @@ pub struct Acquisition {
     pub receivers_per_event: Option<usize>,
 }
 
+/// One `[[acquisition.transmits]]` entry (CONTRACT §3): `kind = "plane_wave"`
+/// with `angle_deg`, `"diverging"` with `virtual_source_m = [x, z]` (behind the
+/// array, `z < 0`) or `"focused"` with `focus_m = [x, z]` (in front, `z > 0`),
+/// metres in the probe frame; the time models of `usray_signal::transmit`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TransmitSpec {
+    /// `"plane_wave"`, `"diverging"` or `"focused"`.
+    pub kind: String,
+    /// Steering angle of a plane wave, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angle_deg: Option<f64>,
+    /// Virtual source `[x, z]` of a diverging wave, m.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "exact::option"
+    )]
+    pub virtual_source_m: Option<[f64; 2]>,
+    /// Focus `[x, z]` of a focused wave, m.
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "exact::option"
+    )]
+    pub focus_m: Option<[f64; 2]>,
+}
+
 /// Emission model of the primary rays (`acquisition.emission`).
 ///
 /// The default is the collimated plane wave: with the paper's cosine lobe the
@@ -96,9 +135,11 @@ pub enum Emission {
     /// emitters add as incoherent Monte Carlo noise that averages out slowly.
     /// The paper's model; ask for it with `emission = "cosine"`.
     Cosine,
-    /// Geometric-acoustics plane wave (the default): every ray leaves along the
-    /// steering direction `(sin θ, 0, cos θ)` with weight `f_d = cos θ` (paper
-    /// eq. `directivity` at that direction). No edge waves; far less noise.
+    /// Geometric-acoustics wave (the default): every ray leaves along the
+    /// transmitted wave's ray through its emission point (a plane wave's
+    /// steering direction `(sin θ, 0, cos θ)`; away from a virtual source;
+    /// towards a focus) with weight `f_d = n·ω` (paper eq. `directivity` at
+    /// that direction). No edge waves; far less noise.
     #[default]
     PlaneWave,
 }
@@ -337,12 +378,6 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     )?;
     // 3. Probe.
     let p = &s.probe;
-    if p.kind != "linear" {
-        return err(
-            "probe.kind",
-            &format!("expected \"linear\", found {:?}", p.kind),
-        );
-    }
     if p.n_elements == 0 {
         return err("probe.n_elements", "expected at least 1 element");
     }
@@ -371,9 +406,6 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     }
     // 4. Acquisition.
     let a = &s.acquisition;
-    if a.angles_deg.is_empty() {
-        return err("acquisition.angles_deg", "expected at least one angle");
-    }
     for (i, &ang) in a.angles_deg.iter().enumerate() {
         if ang.abs() >= 90.0 {
             return err(
@@ -570,6 +602,7 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
             ),
         );
     }
+    s.check_acquisition()?;
     if im.z_range_m[1] <= 0.0 {
         return err(
             "imaging.z_range_m",
@@ -607,7 +640,7 @@ pub mod limits {
     pub const MAX_PIXEL_M: f64 = 0.01;
     /// Largest `probe.pitch_m`, m (as channel data's).
     pub const MAX_PITCH_M: f64 = usray_signal::channels::limits::PITCH_M.1;
-    /// Largest number of transmits (`acquisition.angles_deg`).
+    /// Largest number of transmits (`acquisition.angles_deg` and `transmits`).
     pub const MAX_TRANSMITS: usize = 1024;
     /// Largest `acquisition.max_bounces`.
     pub const MAX_BOUNCES: u32 = 64;
@@ -643,10 +676,10 @@ pub mod limits {
                 MAX_ELEMENTS.to_string(),
             );
         }
-        if a.angles_deg.len() > MAX_TRANSMITS {
+        if s.n_transmits() > MAX_TRANSMITS {
             return over(
                 "acquisition.angles_deg",
-                format!("{} transmits", a.angles_deg.len()),
+                format!("{} transmits", s.n_transmits()),
                 MAX_TRANSMITS.to_string(),
             );
         }
@@ -679,13 +712,13 @@ pub mod limits {
         // plan's), in floating point: a huge product must not wrap.
         let duration_s = crate::plan::record_duration_s(s);
         let per_record = duration_s * a.sampling_frequency_hz;
-        let total = per_record * p.n_elements as f64 * a.angles_deg.len() as f64;
+        let total = per_record * p.n_elements as f64 * s.n_transmits() as f64;
         if total.is_nan() || total > MAX_CHANNEL_SAMPLES {
             return over(
                 "acquisition.sampling_frequency_hz",
                 format!(
                     "{total:.3e} channel samples ({} transmits × {} elements × {per_record:.3e} samples per record of {:.3e} s at {} Hz, from max_depth_m, the sound_speed_m_s of the medium and the beamformer, the aperture (probe.n_elements × pitch_m, for the steered transmits' delays), probe.cycles and probe.center_frequency_hz)",
-                    a.angles_deg.len(),
+                    s.n_transmits(),
                     p.n_elements,
                     duration_s,
                     a.sampling_frequency_hz
