@@ -506,3 +506,46 @@ fn a_fit_resumed_from_its_checkpoint_gives_the_same_bits() {
     assert_eq!(bits(&again), bits(&plain));
     assert!(t.elapsed().as_secs_f64() < 1.0);
 }
+
+/// A convex array's radius recovered from a B-mode: `scenes/convex_rod.toml`
+/// (radius 40 mm, one diverging wave) rendered as the reference, the fit started
+/// at 34 mm (−15%) with the default options. The element positions, their
+/// normals (receive directivity, F-number cone) and the beamformer's delays all
+/// move with the radius. Asserted: within 1% and the loss down ≥ 100×. Measured
+/// (release build): 40.003 mm, loss ×427 in 100 iterations, 13 s.
+#[test]
+fn convex_radius_is_recovered_from_its_bmode() {
+    let truth = Scene::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/convex_rod.toml"
+    ))
+    .unwrap();
+    let o = RenderOptions::default();
+    let reference = reference_of(&truth, &o);
+    let path = "probe.radius_m";
+    let true_r = truth.get(path).unwrap();
+    let start_r = 0.85 * true_r;
+    let mut start = truth.clone();
+    start.set(path, start_r).unwrap();
+    let specs = vec![ParamSpec::parse(&format!("{path}=0.025:0.06"), start_r).unwrap()];
+    let mut obj = Objective::new(start, reference, specs, o).unwrap();
+    let r = fit(
+        &mut obj,
+        &[start_r],
+        &FitOptions {
+            iters: 100,
+            ..Default::default()
+        },
+        |_| {},
+    )
+    .unwrap();
+    let found = r.final_params[0];
+    let drop = r.history[0].loss / r.final_loss;
+    eprintln!(
+        "convex radius: {:.4} mm (true {:.1}), loss ×{drop:.0}",
+        found * 1e3,
+        true_r * 1e3
+    );
+    assert!((found - true_r).abs() / true_r < 0.01, "radius {found}");
+    assert!(drop >= 100.0, "loss only ×{drop}");
+}
