@@ -39,3 +39,23 @@ fn shipped_scenes_load_and_render() {
         assert!(energy > 0.0, "{}: no echo", p.display());
     }
 }
+
+/// A scene that leaves out the receive directivity gets the shipped scenes'
+/// 5° main lobe and 60° cutoff: `scenes/cylinder.toml` without those two lines
+/// is the same scene.
+#[test]
+fn receive_directivity_defaults_to_the_shipped_values() {
+    let path = scene_path("cylinder.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let trimmed: String = text
+        .lines()
+        .filter(|l| !l.starts_with("main_lobe_deg") && !l.starts_with("cutoff_deg"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_ne!(trimmed, text, "the lines were not there to remove");
+    let full = Scene::load(&path).unwrap();
+    let bare = Scene::from_toml_str(&trimmed, "cylinder.toml", scene_path("")).unwrap();
+    assert_eq!(bare.probe.main_lobe_deg, 5.0);
+    assert_eq!(bare.probe.cutoff_deg, 60.0);
+    assert_eq!(bare.probe, full.probe);
+}

@@ -38,13 +38,25 @@ pub struct Probe {
     pub center_frequency_hz: f64,
     /// Pulse length in cycles (envelope FWHM = cycles/f_c; `usray_signal::pulse`).
     pub cycles: f64,
-    /// Receive directivity main lobe, degrees (paper eq. `cutoff`, `α_m`).
+    /// Receive directivity main lobe, degrees (paper eq. `cutoff`, `α_m`);
+    /// default 5°, the shipped scenes' value.
+    #[serde(default = "default_main_lobe_deg")]
     pub main_lobe_deg: f64,
-    /// Receive directivity cutoff, degrees (paper eq. `cutoff`, `α_c`).
+    /// Receive directivity cutoff, degrees (paper eq. `cutoff`, `α_c`); default
+    /// 60°, the shipped scenes' value.
+    #[serde(default = "default_cutoff_deg")]
     pub cutoff_deg: f64,
     /// Element extent along `y` (elevation), metres; default 4 mm.
     #[serde(default = "default_elevation")]
     pub elevation_m: f64,
+}
+
+fn default_main_lobe_deg() -> f64 {
+    5.0
+}
+
+fn default_cutoff_deg() -> f64 {
+    60.0
 }
 
 fn default_elevation() -> f64 {
