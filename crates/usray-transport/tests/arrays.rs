@@ -4,9 +4,9 @@
 //! transmits' virtual source and focus against finite differences.
 
 mod common;
-use common::weights;
+use common::ad_and_fd;
 use usray_signal::transmit::TransmitWave;
-use usray_transport::{channel_gradient, render, trace_path, RenderOptions, Scene, TraceSettings};
+use usray_transport::{render, trace_path, RenderOptions, Scene, TraceSettings};
 
 /// A scene with the given `[probe]` lines (kind, elements, pitch, width,
 /// radius), `[[acquisition.transmits]]` tables and objects.
@@ -243,38 +243,6 @@ fn renders_are_bit_identical_across_thread_counts() {
             "{probe}, {emission}: 1 and 2 threads differ"
         );
     }
-}
-
-/// (AD, FD, relative difference) of `L = Σ w·P` for each parameter, central
-/// differences with the absolute step `h` (metres) given with it.
-fn ad_and_fd(s: &Scene, params: &[(&str, f64)]) -> Vec<(f64, f64, f64)> {
-    let opts = RenderOptions {
-        rays_per_element: Some(4),
-        threads: Some(2),
-        ..Default::default()
-    };
-    let (d, _) = render(s, &opts).unwrap();
-    let w = weights(d.samples.len(), 12345);
-    let loss = |s: &Scene| -> f64 {
-        let (d, _) = render(s, &opts).unwrap();
-        d.samples.iter().zip(&w).map(|(p, w)| p * w).sum()
-    };
-    let names: Vec<&str> = params.iter().map(|p| p.0).collect();
-    let g = channel_gradient(s, &names, &w, &opts).unwrap();
-    params
-        .iter()
-        .zip(&g)
-        .map(|(&(p, h), &ad)| {
-            let v = s.get(p).unwrap();
-            let (mut sp, mut sm) = (s.clone(), s.clone());
-            sp.set(p, v + h).unwrap();
-            sm.set(p, v - h).unwrap();
-            let fd = (loss(&sp) - loss(&sm)) / (2.0 * h);
-            let r = (ad - fd).abs() / fd.abs();
-            eprintln!("{p}: AD {ad:.9e}, FD {fd:.9e}, relative difference {r:.2e}");
-            (ad, fd, r)
-        })
-        .collect()
 }
 
 /// The convex radius, the focus and the virtual source are differentiable

@@ -16,7 +16,7 @@
 //! over the step; error ≤ 1e-7 there, roundoff-limited below).
 
 mod common;
-use common::{scene_path, weights};
+use common::{ad_and_fd, scene_path, weights};
 use usray_transport::{channel_gradient, render, RenderOptions, Scene};
 
 /// A shipped scene at 0° steering only, with extra replacements.
@@ -31,37 +31,14 @@ fn scene_0deg(name: &str, angles: &str, extra: &[(&str, &str)]) -> Scene {
     Scene::from_toml_str(&text, name, scene_path("")).unwrap()
 }
 
-/// (AD, FD, relative difference) for each parameter.
+/// (AD, FD, relative difference) for each parameter, the step given relative
+/// to the parameter's value.
 fn check(scene: &Scene, params: &[(&str, f64)]) -> Vec<(f64, f64, f64)> {
-    let opts = RenderOptions {
-        rays_per_element: Some(4),
-        threads: Some(2),
-        ..Default::default()
-    };
-    let (d, _) = render(scene, &opts).unwrap();
-    let w = weights(d.samples.len(), 12345);
-    let loss = |s: &Scene| -> f64 {
-        let (d, _) = render(s, &opts).unwrap();
-        d.samples.iter().zip(&w).map(|(p, w)| p * w).sum()
-    };
-    let names: Vec<&str> = params.iter().map(|p| p.0).collect();
-    let g = channel_gradient(scene, &names, &w, &opts).unwrap();
-    params
+    let steps: Vec<(&str, f64)> = params
         .iter()
-        .zip(&g)
-        .map(|(&(p, rel), &ad)| {
-            let v = scene.get(p).unwrap();
-            let h = rel * v.abs();
-            let mut sp = scene.clone();
-            sp.set(p, v + h).unwrap();
-            let mut sm = scene.clone();
-            sm.set(p, v - h).unwrap();
-            let fd = (loss(&sp) - loss(&sm)) / (2.0 * h);
-            let r = (ad - fd).abs() / fd.abs();
-            eprintln!("{p}: AD {ad:.9e}, FD {fd:.9e}, relative difference {r:.2e}");
-            (ad, fd, r)
-        })
-        .collect()
+        .map(|&(p, rel)| (p, rel * scene.get(p).unwrap().abs()))
+        .collect();
+    ad_and_fd(scene, &steps)
 }
 
 const CYL_ANGLES: &str = "angles_deg = [-10.0, -5.0, 0.0, 5.0, 10.0]";

@@ -111,3 +111,38 @@ pub fn weights(n: usize, seed: u64) -> Vec<f64> {
         })
         .collect()
 }
+
+/// (AD, FD, relative difference) of `L = Σ w·P` (`w` = [`weights`] seed 12345)
+/// for each parameter: `channel_gradient` against central differences of the
+/// same realisation (4 rays per element, 2 threads) with the absolute step given
+/// with the parameter.
+pub fn ad_and_fd(scene: &usray_transport::Scene, params: &[(&str, f64)]) -> Vec<(f64, f64, f64)> {
+    use usray_transport::{channel_gradient, render, RenderOptions, Scene};
+    let opts = RenderOptions {
+        rays_per_element: Some(4),
+        threads: Some(2),
+        ..Default::default()
+    };
+    let (d, _) = render(scene, &opts).unwrap();
+    let w = weights(d.samples.len(), 12345);
+    let loss = |s: &Scene| -> f64 {
+        let (d, _) = render(s, &opts).unwrap();
+        d.samples.iter().zip(&w).map(|(p, w)| p * w).sum()
+    };
+    let names: Vec<&str> = params.iter().map(|p| p.0).collect();
+    let g = channel_gradient(scene, &names, &w, &opts).unwrap();
+    params
+        .iter()
+        .zip(&g)
+        .map(|(&(p, h), &ad)| {
+            let v = scene.get(p).unwrap();
+            let (mut sp, mut sm) = (scene.clone(), scene.clone());
+            sp.set(p, v + h).unwrap();
+            sm.set(p, v - h).unwrap();
+            let fd = (loss(&sp) - loss(&sm)) / (2.0 * h);
+            let r = (ad - fd).abs() / fd.abs();
+            eprintln!("{p}: AD {ad:.9e}, FD {fd:.9e}, relative difference {r:.2e}");
+            (ad, fd, r)
+        })
+        .collect()
+}
