@@ -1,0 +1,178 @@
+//! Receiver connections (paper, "Transducer Sampling"; module docs of
+//! [`super`]): the straight line from a vertex to an element's centre, traced
+//! through every boundary it crosses, and the MIS weight of an unobstructed one
+//! against the vertex's continuation hitting the element directly.
+
+use super::context::PathCtx;
+use super::{Deposit, T_MIN};
+use crate::effects::attenuation_and_exponent;
+use crate::fresnel::fresnel;
+use crate::probe::{centre3, cos_to_normal};
+use usray_ad::Real;
+use usray_geometry::{MediumStack, Ray, Vec3};
+
+/// Maximum boundaries a receiver connection crosses before it is dropped.
+const MAX_CONNECTION_CROSSINGS: usize = 32;
+
+/// Power-heuristic MIS weight (β = 2) of a strategy with density `p` against one
+/// with density `q` (Veach 1997, §9.2.3): `p²/(p² + q²)`. Differentiated (the
+/// weights of the two strategies sum to one for any parameters, so the estimate
+/// stays unbiased and its fixed-seed derivative is exact).
+#[inline]
+pub(super) fn power_heuristic<T: Real>(p: T, q: T) -> T {
+    let (p2, q2) = (p * p, q * q);
+    let s = p2 + q2;
+    if s.value() > 0.0 && s.is_finite() {
+        p2 / s
+    } else if p.value().is_infinite() {
+        T::one()
+    } else {
+        T::zero()
+    }
+}
+
+/// The straight line of a receiver connection (see `PathCtx::link`).
+#[derive(Clone, Copy)]
+pub(super) struct Link<T> {
+    /// Receiving element.
+    pub(super) e: usize,
+    /// Unit direction towards the element's centre.
+    pub(super) wo: Vec3<T>,
+    /// Distance to it, metres.
+    pub(super) r: T,
+}
+
+/// The values of a receiver connection's line that passed the checks of
+/// `PathCtx::aim`.
+#[derive(Clone, Copy)]
+pub(super) struct Aim {
+    /// Receiving element.
+    pub(super) e: usize,
+    /// Unit direction towards the element's centre (values).
+    pub(super) wo: Vec3<f64>,
+}
+
+/// The unit direction from `p` to the element centre `target` and the
+/// distance, in any number type (`PathCtx::aim` in values, `PathCtx::link` in
+/// `T`).
+#[inline]
+fn line<U: Real>(target: Vec3<U>, p: Vec3<U>) -> (Vec3<U>, U) {
+    let v = target - p;
+    let r = v.length();
+    (v * r.recip(), r)
+}
+
+impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
+    /// The line from `p` to element `e`'s centre in values (the values of
+    /// [`PathCtx::link`]'s, bit for bit), or `None` when no connection is made:
+    /// closer than [`T_MIN`], beyond the element's receive cutoff (where its
+    /// directivity is 0), or certainly arriving after the horizon from `time`.
+    /// Checked before any `T` arithmetic, which rejected connections then skip.
+    #[inline]
+    pub(super) fn aim(&self, p: Vec3<f64>, e: usize, time: f64) -> Option<Aim> {
+        let st = self.st;
+        let el = &st.elements[e];
+        let (wo, r) = line(centre3(el).to_f64(), p);
+        let n = [el.normal[0].value(), el.normal[1].value()];
+        let facing = cos_to_normal(st.array.kind, &n, wo);
+        if r <= T_MIN || !self.lobe.may_receive(-facing) || self.late(time, r) {
+            return None;
+        }
+        Some(Aim { e, wo })
+    }
+
+    /// The straight line from `p` to the element of `aim` in `T`.
+    #[inline]
+    pub(super) fn link(&self, p: Vec3<T>, aim: &Aim) -> Link<T> {
+        let (wo, r) = line(centre3(&self.st.elements[aim.e]), p);
+        Link { e: aim.e, wo, r }
+    }
+
+    /// Receiver connection from `p` along `link` (medium stack `stack` on the
+    /// side the connection leaves into) with scattering factor `f_cos` (1/sr)
+    /// and path amplitude `w` and attenuation exponent `beta` at time `tau`, estimator weight `sel_w` (see
+    /// [`TraceSettings::receivers`]). `p_bsdf` is the density (1/sr) with which
+    /// the vertex's own continuation sampling would produce the connection
+    /// direction (0 for volume scatterers): an unobstructed connection is then
+    /// MIS-weighted against a direct array hit of that continuation.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn connect(
+        &mut self,
+        p: Vec3<T>,
+        mut stack: MediumStack,
+        w: T,
+        beta: T,
+        f_cos: T,
+        tau: T,
+        link: &Link<T>,
+        sel_w: f64,
+        p_bsdf: T,
+    ) {
+        let st = self.st;
+        if f_cos.value() == 0.0 {
+            return;
+        }
+        let Link { e, wo, r } = *link;
+        let cos_e = -cos_to_normal(st.array.kind, &st.elements[e].normal, wo);
+        let fd = self.lobe.eval(cos_e);
+        if fd.value() == 0.0 {
+            return;
+        }
+        // Trace the straight segment, crossing boundaries.
+        let mut amp = w * f_cos;
+        let mut beta = beta;
+        let mut time = tau;
+        let mut origin = p;
+        let mut remaining = r;
+        for crossing in 0..MAX_CONNECTION_CROSSINGS {
+            let medium = *st.medium_of(stack.top());
+            let hit = self.intersect(&Ray::new(origin, wo), remaining.value() - T_MIN);
+            let Some(hit) = hit else {
+                time += remaining / medium.sound_speed;
+                let (k, b) = attenuation_and_exponent(
+                    medium.attenuation_db_cm_mhz,
+                    st.center_frequency,
+                    remaining,
+                );
+                amp *= k;
+                beta += b;
+                let solid = st.array.element_width_m * st.elevation * cos_e / (r * r);
+                // Unobstructed: the continuation could have hit the element too.
+                let mis = if crossing == 0 && p_bsdf.value() > 0.0 {
+                    power_heuristic((solid.scale(sel_w)).recip(), p_bsdf)
+                } else {
+                    T::one()
+                };
+                let a = amp * solid * fd.scale(sel_w) * mis;
+                self.deposit(e, a, beta, time);
+                return;
+            };
+            time += hit.t / medium.sound_speed;
+            let (k, b) =
+                attenuation_and_exponent(medium.attenuation_db_cm_mhz, st.center_frequency, hit.t);
+            amp *= k;
+            beta += b;
+            remaining -= hit.t;
+            let entering = hit.entering(&wo);
+            let other = if entering {
+                st.objects[hit.object].material
+            } else {
+                *st.medium_of(stack.after_exit(hit.object))
+            };
+            let cos_i = wo.dot(hit.normal).abs();
+            let f = fresnel(
+                cos_i,
+                medium.sound_speed,
+                other.sound_speed,
+                medium.impedance,
+                other.impedance,
+            );
+            if f.tir {
+                return;
+            }
+            amp *= f.t;
+            stack.cross(hit.object, entering);
+            origin = hit.point;
+        }
+    }
+}

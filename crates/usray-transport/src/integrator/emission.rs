@@ -1,0 +1,118 @@
+//! Step 1 of the path loop: the primary branch leaves a point of the element's
+//! face, in a direction set by `acquisition.emission`, at the time the
+//! transmit's wave leaves that point.
+
+use super::branch::Branch;
+use super::settings::TraceSettings;
+use crate::probe::{cosine_hemisphere, face_point, from_element_frame, transmit_directivity};
+use crate::rng::{dim, PathSampler};
+use crate::scene::{Emission, Sampler, SceneT};
+use usray_ad::Real;
+use usray_geometry::{MediumStack, Vec3};
+use usray_signal::transmit::TransmitWave;
+
+/// Step 1: the primary branch of the path (transmit `tx`, emitting element
+/// `el`, ray index `ray`) in the element's medium stack `start_stack`, or
+/// `None` when its sampled direction has no density (a cosine sample in the
+/// face's plane).
+pub(super) fn emit<T: Real>(
+    st: &SceneT<T>,
+    settings: &TraceSettings,
+    tx: usize,
+    el: usize,
+    ray: u32,
+    start_stack: MediumStack,
+) -> Option<Branch<T>> {
+    let stratified_rays = match settings.sampler {
+        Sampler::Stratified => settings.rays_per_element as u32,
+        Sampler::Independent => 1,
+    };
+    let sampler =
+        PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays);
+    // Step 1: emission from the element face, at the element's firing time.
+    let kind = st.array.kind;
+    let element = st.elements[el];
+    let ux = sampler.uniform(0, dim::EMIT_X) - 0.5;
+    let uy = sampler.uniform(0, dim::EMIT_Y) - 0.5;
+    let origin = face_point(
+        kind,
+        &element,
+        st.array.element_width_m,
+        st.elevation,
+        ux,
+        uy,
+    );
+    let wave = st.transmits[tx];
+    let c_img = st.imaging_sound_speed;
+    let firing_time = wave.element_delay_s(element.centre_m, c_img);
+    let (dir, w, time) = match st.emission {
+        Emission::Cosine => {
+            let dl = cosine_hemisphere(
+                sampler.uniform(0, dim::EMIT_U1),
+                sampler.uniform(0, dim::EMIT_U2),
+            );
+            let dir = from_element_frame(kind, &element, dl);
+            // f_d(ω)/p(ω) with p = cos θ/π about the normal (constant in the
+            // element's frame), normalised by π: value 1.
+            let pdf = dl[2] / core::f64::consts::PI;
+            if pdf <= 0.0 {
+                return None;
+            }
+            let w = transmit_directivity(kind, &element, dir)
+                / T::from_f64(pdf * core::f64::consts::PI);
+            // The element radiates as a whole at its firing time.
+            (dir, w, firing_time)
+        }
+        Emission::PlaneWave => {
+            // Along the wave's ray through the emission point, weight
+            // f_d = n·ω (paper eq. `directivity`). A plane wave's rays are
+            // parallel, so an element's beamlet returns onto one element's
+            // width and the face offset from the ideal front (±(w/2)·sin θ/c)
+            // averages out over the receiving face: its rays keep the
+            // element's firing time. A curved wave's rays fan out (or in),
+            // so one receiving element sees only part of an emitting face and
+            // the offset would not average out (up to ±0.9 sample measured
+            // on a convex array): each ray starts on the wave's front, at its
+            // arrival time at the emission point (in the imaging plane).
+            let dir = propagation_direction(&wave, origin);
+            let time = match wave {
+                TransmitWave::PlaneWave { .. } => firing_time,
+                _ => wave.arrival_time_s([origin.x, origin.z], c_img),
+            };
+            (dir, transmit_directivity(kind, &element, dir), time)
+        }
+    };
+    Some(Branch {
+        origin,
+        dir,
+        w,
+        beta: T::zero(),
+        time,
+        stack: start_stack,
+        specular_chain: true,
+        last_rough: None,
+        rough_vertices: 0,
+        bounce: 1,
+        sampler,
+    })
+}
+
+/// The direction a transmitted wave travels at the point `p` of an element's
+/// face: a plane wave along `(sin θ, 0, cos θ)`; a diverging wave away from
+/// its virtual source `v`, along `(p − v)` in the imaging plane; a focused
+/// wave towards its focus `f`, along `(f − p)` in that plane: the rays of the
+/// wavefronts of [`TransmitWave::arrival_time_s`], so an element's rays fan
+/// out or in with the wave and the elements' beamlets tile the field as a
+/// plane wave's do. The delays of a 1-D array shape the wave in `xz` only
+/// (CONTRACT §1's time models are 2-D): `v` and `f` are lines along `y`, and
+/// no ray turns in elevation, as for a plane wave.
+fn propagation_direction<T: Real>(wave: &TransmitWave<T>, p: Vec3<T>) -> Vec3<T> {
+    let in_plane = |dx: T, dz: T| Vec3::new(dx, T::zero(), dz).normalize();
+    match *wave {
+        TransmitWave::PlaneWave { angle_rad } => {
+            Vec3::new(angle_rad.sin(), T::zero(), angle_rad.cos())
+        }
+        TransmitWave::Diverging { source_m: [x, z] } => in_plane(p.x - x, p.z - z),
+        TransmitWave::Focused { focus_m: [x, z] } => in_plane(x - p.x, z - p.z),
+    }
+}

@@ -1,0 +1,128 @@
+//! Step 5 of the path loop: a branch meets an interface. A rough interface
+//! connects to the receivers (5a); every interface splits the branch into its
+//! reflected and transmitted continuations (5b).
+
+use super::branch::Branch;
+use super::context::PathCtx;
+use super::{Deposit, MIN_BRANCH_AMPLITUDE};
+use crate::ggx::{Interface, SMOOTH_ALPHA};
+use crate::rng::dim;
+use crate::scene::MaterialT;
+use usray_ad::Real;
+use usray_geometry::{Hit, Ray};
+
+impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
+    /// Step 5: branch `b`, arrived at `hit` through `medium` (its amplitude,
+    /// attenuation exponent and time taken at the hit), meets the interface
+    /// there; its continuations are pushed onto `pending`.
+    pub(super) fn interact(
+        &mut self,
+        b: Branch<T>,
+        medium: &MaterialT<T>,
+        hit: &Hit<T>,
+        pending: &mut Vec<Branch<T>>,
+    ) {
+        let st = self.st;
+        let settings = self.settings;
+        let n_el = st.n_elements;
+        let Branch {
+            dir,
+            w,
+            beta,
+            time,
+            stack,
+            specular_chain,
+            rough_vertices,
+            bounce,
+            sampler,
+            ..
+        } = b;
+        // Step 5: the interface between the current medium and the other side.
+        let entering = hit.entering(&dir);
+        let other = if entering {
+            st.objects[hit.object].material
+        } else {
+            *st.medium_of(stack.after_exit(hit.object))
+        };
+        let iface = Interface {
+            c1: medium.sound_speed,
+            c2: other.sound_speed,
+            z1: medium.impedance,
+            z2: other.impedance,
+            alpha: st.objects[hit.object].material.roughness,
+        };
+        let n_inc = if entering { hit.normal } else { -hit.normal };
+        let wi = -dir;
+
+        // The rough interface as seen from `wi`: BSDF and density terms shared by
+        // every receiver connection and both continuations of this vertex.
+        let incident = (iface.alpha.value() >= SMOOTH_ALPHA).then(|| iface.incident(wi, n_inc));
+
+        // Step 5a: receiver connection from a rough interface.
+        if let Some(inc) = &incident {
+            let ue = sampler.uniform(bounce, dim::ELEMENT);
+            let (p_v, n_v, time_v) = (hit.point.to_f64(), n_inc.to_f64(), time.value());
+            for (e, sel_w) in settings.receivers(n_el, ue) {
+                let Some(aim) = self.aim(p_v, e, time_v) else {
+                    continue;
+                };
+                let transmitted = aim.wo.dot(n_v) < 0.0;
+                if rough_vertices > 0 && transmitted {
+                    // Transmission-side arrival after an earlier rough vertex:
+                    // already counted by that vertex's connection through this
+                    // boundary (module docs, "Double counting").
+                    continue;
+                }
+                let link = self.link(hit.point, &aim);
+                let (f_cos, p_b) = inc.eval_pdf(link.wo);
+                if f_cos.value() != 0.0 {
+                    // The connection leaves into the incident medium (reflection)
+                    // or the other one (transmission).
+                    let mut cstack = stack;
+                    if transmitted {
+                        cstack.cross(hit.object, entering);
+                    }
+                    self.connect(hit.point, cstack, w, beta, f_cos, time, &link, sel_w, p_b);
+                }
+            }
+        }
+
+        // Step 5b: split into the reflected and the transmitted continuation.
+        let Some(s) = iface.scatter(
+            wi,
+            n_inc,
+            sampler.uniform(bounce, dim::GGX_U1),
+            sampler.uniform(bounce, dim::GGX_U2),
+        ) else {
+            return;
+        };
+        let rough = !s.specular;
+        for (branch, lobe, reflected) in [(1, s.transmitted, false), (0, s.reflected, true)] {
+            let Some(lobe) = lobe else { continue };
+            let w_child = w * lobe.weight;
+            if !w_child.is_finite() || w_child.value().abs() < MIN_BRANCH_AMPLITUDE {
+                continue;
+            }
+            let mut child_stack = stack;
+            if !reflected {
+                child_stack.cross(hit.object, entering);
+            }
+            pending.push(Branch {
+                origin: hit.point,
+                dir: lobe.wo,
+                w: w_child,
+                beta,
+                time,
+                stack: child_stack,
+                specular_chain: specular_chain && !rough,
+                last_rough: incident
+                    .as_ref()
+                    .filter(|_| rough && (reflected || rough_vertices == 0))
+                    .map(|inc| inc.eval_pdf(lobe.wo).1),
+                rough_vertices: rough_vertices + u32::from(rough),
+                bounce: bounce + 1,
+                sampler: sampler.branch(branch),
+            });
+        }
+    }
+}
