@@ -4,55 +4,19 @@
 //! Fixtures and their settings: `tests/data/probes/README.md`, made by
 //! `tests/python/pymust_probes.py` (committed, so these run in CI).
 
+mod common;
+
 use std::path::PathBuf;
 
+use common::pymust::{agreement, envelope, iq, one_transmit, peak_near};
 use usray_signal::array::ArrayGeometry;
 use usray_signal::das::{linspace, Das};
-use usray_signal::demod::IqDemod;
 use usray_signal::grid::PolarGrid;
 use usray_signal::io::read_npy;
 use usray_signal::transmit::TransmitWave;
-use usray_signal::{ChannelData, Complex64};
 
 fn fixture(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/probes/{name}"))
-}
-
-fn ncc(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len() as f64;
-    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        sab += (x - ma) * (y - mb);
-        saa += (x - ma) * (x - ma);
-        sbb += (y - mb) * (y - mb);
-    }
-    sab / (saa * sbb).sqrt()
-}
-
-/// IQ demodulation of every record as PyMUST `rf2iq` (mix at f_c on the
-/// absolute clock, Butterworth(5) low-pass at bandwidth/2, forward-backward).
-fn iq(ch: &ChannelData) -> Vec<Complex64> {
-    let (fc, fs) = (ch.meta.center_frequency_hz, ch.meta.sampling_frequency_hz);
-    let bw = ch.meta.probe.extra["bandwidth_percent"].as_f64().unwrap() / 100.0;
-    let d = IqDemod::new(fc, fs, bw * fc / 2.0, 5).unwrap();
-    let ns = ch.n_samples;
-    let ne = ch.n_elements();
-    let mut out = vec![Complex64::new(0.0, 0.0); ch.samples.len()];
-    for (rec, o) in out.chunks_mut(ns).enumerate() {
-        d.forward(
-            &ch.samples[rec * ns..(rec + 1) * ns],
-            ch.meta.t0_for(rec / ne),
-            o,
-        );
-    }
-    out
-}
-
-fn envelope(das: &Das, iq: &[Complex64]) -> Vec<f64> {
-    let mut out = vec![Complex64::new(0.0, 0.0); das.out_len()];
-    das.forward(iq, &mut out);
-    out.iter().map(|v| v.norm()).collect()
 }
 
 /// NCC of usray's dB image against PyMUST's over the pixels where PyMUST's is
@@ -118,49 +82,19 @@ fn compare(name: &str) -> f64 {
                 }
         })
     };
-    let (mut a, mut r) = (vec![], vec![]);
-    let (mut a_all, mut r_all) = (vec![], vec![]);
-    for (k, (e, &p)) in env.iter().zip(&refdb.data).enumerate() {
-        if p > -40.0 {
-            let db = 20.0 * (e / max).log10();
-            if db.is_finite() {
-                a_all.push(db);
-                r_all.push(p);
-            }
-            let px = das.pixel(k / nt, k % nt);
-            if in_region(px) {
-                a.push(db);
-                r.push(p);
-            }
-        }
-    }
-    let max_diff = a
-        .iter()
-        .zip(&r)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max);
-    let v = ncc(&a, &r);
+    let db: Vec<f64> = env.iter().map(|e| 20.0 * (e / max).log10()).collect();
+    let m = agreement(&db, &refdb.data, |k| in_region(das.pixel(k / nt, k % nt)));
+    let all = agreement(&db, &refdb.data, |k| db[k].is_finite());
     eprintln!(
-        "{name}: NCC over {} insonified px of {} (PyMUST > -40 dB) = {v:.6}, max |ΔdB| = {max_diff:.3}; over all {} px > -40 dB (finite in usray's image): {:.6}",
-        a.len(),
+        "{name}: NCC over {} insonified px of {} (PyMUST > -40 dB) = {:.6}, max |ΔdB| = {:.3}; over all {} px > -40 dB (finite in usray's image): {:.6}",
+        m.pixels,
         env.len(),
-        a_all.len(),
-        ncc(&a_all, &r_all)
+        m.ncc,
+        m.max_diff_db,
+        all.pixels,
+        all.ncc
     );
-    v
-}
-
-fn one_transmit(ch: &ChannelData, t: usize) -> ChannelData {
-    let mut meta = ch.meta.clone();
-    let mut tx = meta.transmits[t].clone();
-    tx.t0_s = Some(ch.meta.t0_for(t));
-    meta.transmits = vec![tx];
-    let n = ch.n_elements() * ch.n_samples;
-    ChannelData {
-        meta,
-        n_samples: ch.n_samples,
-        samples: ch.samples[t * n..(t + 1) * n].to_vec(),
-    }
+    m.ncc
 }
 
 /// Whether the wave reaches `p` along a ray from its virtual source or
@@ -203,34 +137,12 @@ fn localise(name: &str) -> (f64, usize) {
         let c1 = one_transmit(&ch, t);
         let wave = TransmitWave::from_meta(0, &c1.meta.transmits[0]).unwrap();
         let iq = iq(&c1);
-        let peak = |x: Vec<f64>, z: Vec<f64>| {
-            let das = Das::new(
-                &c1.meta,
-                c1.n_samples,
-                x.clone(),
-                z.clone(),
-                1540.0,
-                0.0,
-                true,
-            )
-            .unwrap();
-            let k = usray_signal::post::argmax(&envelope(&das, &iq));
-            (x[k % x.len()], z[k / x.len()])
-        };
         for (i, (&xt, &zt)) in xs.iter().zip(&zs).enumerate() {
             if !insonified(&wave, [xt, zt], half) {
                 continue;
             }
             seen[i] = true;
-            // Coarse: ±1 mm × ±2 mm at 0.1 mm; fine: ±0.15 mm at 0.01 mm.
-            let (xc, zc) = peak(
-                linspace(xt - 1e-3, xt + 1e-3, 21),
-                linspace(zt - 2e-3, zt + 2e-3, 41),
-            );
-            let (xf, zf) = peak(
-                linspace(xc - 0.15e-3, xc + 0.15e-3, 31),
-                linspace(zc - 0.15e-3, zc + 0.15e-3, 31),
-            );
+            let (xf, zf) = peak_near(&c1.meta, c1.n_samples, &iq, xt, zt);
             let err = (xf - xt).hypot(zf - zt);
             eprintln!(
                 "{name} transmit {t}: point ({:.1}, {:.1}) mm found at ({:.3}, {:.3}) mm, error {:.3} mm",
