@@ -3,6 +3,7 @@
 
 mod common;
 use common::scene_path;
+use usray_signal::ImagingSettings;
 use usray_transport::{render, RenderOptions, Scene};
 
 #[test]
@@ -58,4 +59,37 @@ fn receive_directivity_defaults_to_the_shipped_values() {
     assert_eq!(bare.probe.main_lobe_deg, 5.0);
     assert_eq!(bare.probe.cutoff_deg, 60.0);
     assert_eq!(bare.probe, full.probe);
+}
+
+/// A scene that leaves out `[imaging]` images with the beamformer's defaults
+/// (`ImagingSettings::default()`, usray-signal), the sound speed aside: the
+/// scene's is the medium's. `scenes/cylinder.toml` without its `[imaging]`
+/// table is checked field by field against them.
+#[test]
+fn imaging_defaults_are_the_beamformers() {
+    let path = scene_path("cylinder.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let mut in_imaging = false;
+    let trimmed: String = text
+        .lines()
+        .filter(|l| {
+            if l.starts_with('[') {
+                in_imaging = l.trim() == "[imaging]";
+            }
+            !in_imaging
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert!(text.contains("[imaging]") && !trimmed.contains("[imaging]"));
+    let bare = Scene::from_toml_str(&trimmed, "cylinder.toml", scene_path("")).unwrap();
+    let defaults = ImagingSettings::default();
+    assert_eq!(defaults.sound_speed_m_s, None);
+    assert_eq!(bare.imaging.sound_speed_m_s, None);
+    assert_eq!(
+        bare.imaging_settings(),
+        ImagingSettings {
+            sound_speed_m_s: Some(bare.medium.sound_speed_m_s),
+            ..defaults
+        }
+    );
 }

@@ -3,6 +3,7 @@
 
 use super::{Scene, SceneError};
 use serde::{Deserialize, Serialize};
+use usray_signal::ImagingSettings;
 
 /// `[medium]`: the background medium the probe is coupled to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -217,14 +218,17 @@ pub struct Imaging {
 }
 
 impl Default for Imaging {
+    /// The beamformer's defaults ([`ImagingSettings::default`]): one set of
+    /// numbers for a scene without `[imaging]` and for the image formation.
     fn default() -> Self {
+        let d = ImagingSettings::default();
         Self {
-            x_range_m: [-0.02, 0.02],
-            z_range_m: [0.001, 0.035],
-            pixel_m: 0.1e-3,
-            f_number: 1.5,
-            dynamic_range_db: 60.0,
-            sound_speed_m_s: None,
+            x_range_m: d.x_range_m,
+            z_range_m: d.z_range_m,
+            pixel_m: d.pixel_m,
+            f_number: d.f_number,
+            dynamic_range_db: d.dynamic_range_db,
+            sound_speed_m_s: d.sound_speed_m_s,
         }
     }
 }
