@@ -17,7 +17,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     /// before the array's surface at distance `t_array` (infinite: it
     /// escapes). Outside every object, it deposits on the element it lands on
     /// if its interactions so far were all smooth or its last one was rough
-    /// (module docs, "Double counting and MIS").
+    /// (the `integrator` module docs, "Double counting and MIS").
     pub(super) fn arrive(&mut self, b: Branch<T>, medium: &MaterialT<T>, r: &Ray<T>, t_array: T) {
         let st = self.st;
         let settings = self.settings;

@@ -29,7 +29,7 @@ pub(super) struct Branch<T> {
     /// was rough and is the last interaction so far (for the MIS'd direct hit).
     pub(super) last_rough: Option<T>,
     /// Rough vertices so far (connections through boundaries cover later
-    /// transmissions; see the module docs).
+    /// transmissions; see the `integrator` module docs).
     pub(super) rough_vertices: u32,
     /// Index of the vertex this branch is heading to (1 = first interaction).
     pub(super) bounce: u32,
@@ -38,8 +38,8 @@ pub(super) struct Branch<T> {
 }
 
 impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
-    /// Trace `branch` to its next interaction (steps 2–5 of the module docs)
-    /// and push its continuations onto `pending`.
+    /// Trace `branch` to its next interaction (steps 2–5 of the `integrator`
+    /// module docs) and push its continuations onto `pending`.
     pub(super) fn trace_branch(&mut self, branch: Branch<T>, pending: &mut Vec<Branch<T>>) {
         let st = self.st;
         let settings = self.settings;

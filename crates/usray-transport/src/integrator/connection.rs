@@ -90,11 +90,13 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
 
     /// Receiver connection from `p` along `link` (medium stack `stack` on the
     /// side the connection leaves into) with scattering factor `f_cos` (1/sr)
-    /// and path amplitude `w` and attenuation exponent `beta` at time `tau`, estimator weight `sel_w` (see
-    /// [`TraceSettings::receivers`]). `p_bsdf` is the density (1/sr) with which
-    /// the vertex's own continuation sampling would produce the connection
-    /// direction (0 for volume scatterers): an unobstructed connection is then
-    /// MIS-weighted against a direct array hit of that continuation.
+    /// and path amplitude `w` and attenuation exponent `beta` at time `tau`,
+    /// estimator weight `sel_w` (see
+    /// [`TraceSettings::receivers`](super::TraceSettings::receivers)). `p_bsdf`
+    /// is the density (1/sr) with which the vertex's own continuation sampling
+    /// would produce the connection direction (0 for volume scatterers): an
+    /// unobstructed connection is then MIS-weighted against a direct array hit
+    /// of that continuation.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn connect(
         &mut self,

@@ -70,7 +70,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 if rough_vertices > 0 && transmitted {
                     // Transmission-side arrival after an earlier rough vertex:
                     // already counted by that vertex's connection through this
-                    // boundary (module docs, "Double counting").
+                    // boundary (`integrator` module docs, "Double counting").
                     continue;
                 }
                 let link = self.link(hit.point, &aim);
