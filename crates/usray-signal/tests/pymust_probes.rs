@@ -4,15 +4,16 @@
 //! Fixtures and their settings: `tests/data/probes/README.md`, made by
 //! `tests/python/pymust_probes.py` (committed, so these run in CI).
 
+mod common;
+
 use std::path::PathBuf;
 
+use common::probes::{envelope, insonified, iq, localise};
 use usray_signal::array::ArrayGeometry;
 use usray_signal::das::{linspace, Das};
-use usray_signal::demod::IqDemod;
 use usray_signal::grid::PolarGrid;
 use usray_signal::io::read_npy;
 use usray_signal::transmit::TransmitWave;
-use usray_signal::{ChannelData, Complex64};
 
 fn fixture(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/probes/{name}"))
@@ -28,31 +29,6 @@ fn ncc(a: &[f64], b: &[f64]) -> f64 {
         sbb += (y - mb) * (y - mb);
     }
     sab / (saa * sbb).sqrt()
-}
-
-/// IQ demodulation of every record as PyMUST `rf2iq` (mix at f_c on the
-/// absolute clock, Butterworth(5) low-pass at bandwidth/2, forward-backward).
-fn iq(ch: &ChannelData) -> Vec<Complex64> {
-    let (fc, fs) = (ch.meta.center_frequency_hz, ch.meta.sampling_frequency_hz);
-    let bw = ch.meta.probe.extra["bandwidth_percent"].as_f64().unwrap() / 100.0;
-    let d = IqDemod::new(fc, fs, bw * fc / 2.0, 5).unwrap();
-    let ns = ch.n_samples;
-    let ne = ch.n_elements();
-    let mut out = vec![Complex64::new(0.0, 0.0); ch.samples.len()];
-    for (rec, o) in out.chunks_mut(ns).enumerate() {
-        d.forward(
-            &ch.samples[rec * ns..(rec + 1) * ns],
-            ch.meta.t0_for(rec / ne),
-            o,
-        );
-    }
-    out
-}
-
-fn envelope(das: &Das, iq: &[Complex64]) -> Vec<f64> {
-    let mut out = vec![Complex64::new(0.0, 0.0); das.out_len()];
-    das.forward(iq, &mut out);
-    out.iter().map(|v| v.norm()).collect()
 }
 
 /// NCC of usray's dB image against PyMUST's over the pixels where PyMUST's is
@@ -150,102 +126,6 @@ fn compare(name: &str) -> f64 {
     v
 }
 
-fn one_transmit(ch: &ChannelData, t: usize) -> ChannelData {
-    let mut meta = ch.meta.clone();
-    let mut tx = meta.transmits[t].clone();
-    tx.t0_s = Some(ch.meta.t0_for(t));
-    meta.transmits = vec![tx];
-    let n = ch.n_elements() * ch.n_samples;
-    ChannelData {
-        meta,
-        n_samples: ch.n_samples,
-        samples: ch.samples[t * n..(t + 1) * n].to_vec(),
-    }
-}
-
-/// Whether the wave reaches `p` along a ray from its virtual source or
-/// through its focus that leaves the array: the line from the wave's point
-/// through `p` crosses `z = 0` within the end elements (outside that cone the
-/// circular-wave time model does not describe the field, PyMUST or usray).
-fn insonified(wave: &TransmitWave<f64>, p: [f64; 2], half_aperture_m: f64) -> bool {
-    let q = match *wave {
-        TransmitWave::Diverging { source_m } => source_m,
-        TransmitWave::Focused { focus_m } => focus_m,
-        TransmitWave::PlaneWave { .. } => return true,
-    };
-    if p[1] == q[1] {
-        return false;
-    }
-    let x_hit = q[0] + (p[0] - q[0]) * (0.0 - q[1]) / (p[1] - q[1]);
-    x_hit.abs() <= half_aperture_m
-}
-
-/// Every point target insonified by a transmit is found, on that transmit's
-/// image alone, within 0.2 mm of its true position; returns the worst error
-/// and how many targets were insonified by some transmit.
-fn localise(name: &str) -> (f64, usize) {
-    let ch = usray_signal::read_channels(fixture(&format!("{name}.json"))).unwrap();
-    let coords = |k: &str| -> Vec<f64> {
-        ch.meta.extra["scatterers"][k]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_f64().unwrap())
-            .collect()
-    };
-    let (xs, zs) = (coords("x_m"), coords("z_m"));
-    let array = ArrayGeometry::from_meta(&ch.meta.probe).unwrap();
-    let els = array.elements();
-    let half = els[els.len() - 1].centre_m[0];
-    let mut worst: f64 = 0.0;
-    let mut seen = vec![false; xs.len()];
-    for t in 0..ch.n_transmits() {
-        let c1 = one_transmit(&ch, t);
-        let wave = TransmitWave::from_meta(0, &c1.meta.transmits[0]).unwrap();
-        let iq = iq(&c1);
-        let peak = |x: Vec<f64>, z: Vec<f64>| {
-            let das = Das::new(
-                &c1.meta,
-                c1.n_samples,
-                x.clone(),
-                z.clone(),
-                1540.0,
-                0.0,
-                true,
-            )
-            .unwrap();
-            let k = usray_signal::post::argmax(&envelope(&das, &iq));
-            (x[k % x.len()], z[k / x.len()])
-        };
-        for (i, (&xt, &zt)) in xs.iter().zip(&zs).enumerate() {
-            if !insonified(&wave, [xt, zt], half) {
-                continue;
-            }
-            seen[i] = true;
-            // Coarse: ±1 mm × ±2 mm at 0.1 mm; fine: ±0.15 mm at 0.01 mm.
-            let (xc, zc) = peak(
-                linspace(xt - 1e-3, xt + 1e-3, 21),
-                linspace(zt - 2e-3, zt + 2e-3, 41),
-            );
-            let (xf, zf) = peak(
-                linspace(xc - 0.15e-3, xc + 0.15e-3, 31),
-                linspace(zc - 0.15e-3, zc + 0.15e-3, 31),
-            );
-            let err = (xf - xt).hypot(zf - zt);
-            eprintln!(
-                "{name} transmit {t}: point ({:.1}, {:.1}) mm found at ({:.3}, {:.3}) mm, error {:.3} mm",
-                xt * 1e3, zt * 1e3, xf * 1e3, zf * 1e3, err * 1e3
-            );
-            assert!(
-                err < 0.2e-3,
-                "{name} transmit {t}, point ({xt}, {zt}): error {err} m"
-            );
-            worst = worst.max(err);
-        }
-    }
-    (worst, seen.iter().filter(|&&s| s).count())
-}
-
 #[test]
 fn phased_diverging_matches_pymust() {
     let v = compare("p4_diverging");
@@ -272,8 +152,21 @@ fn convex_focused_matches_pymust() {
 
 /// The diverging waves reach all five targets; the focused beam at least one.
 fn points_localised(probe: &str) {
-    let (wd, nd) = localise(&format!("{probe}_diverging"));
-    let (wf, nf) = localise(&format!("{probe}_focused"));
+    let fixture_points = |name: &str| {
+        let ch = usray_signal::read_channels(fixture(&format!("{name}.json"))).unwrap();
+        let coords = |k: &str| -> Vec<f64> {
+            ch.meta.extra["scatterers"][k]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        };
+        let (xs, zs) = (coords("x_m"), coords("z_m"));
+        localise(name, &ch, &xs, &zs)
+    };
+    let (wd, nd) = fixture_points(&format!("{probe}_diverging"));
+    let (wf, nf) = fixture_points(&format!("{probe}_focused"));
     assert_eq!(nd, 5, "{probe}: diverging waves insonify {nd} of 5 targets");
     assert!(nf >= 1, "{probe}: the focused beam insonifies no target");
     eprintln!(

@@ -20,10 +20,13 @@
 //! output's `source`, which variable gave each quantity and what was assumed.
 
 mod axes;
+mod delays;
 mod fmc;
 mod plane_wave;
 mod quantities;
+mod record;
 mod samples;
+mod wave_fit;
 
 use std::path::Path;
 

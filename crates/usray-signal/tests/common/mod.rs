@@ -1,6 +1,8 @@
 //! Shared helpers of the crate's tests.
 #![allow(dead_code)]
 
+pub mod probes;
+
 use usray_signal::{post, BMode, ChannelData, ChannelMeta, Complex64, ImagingSettings};
 
 /// A small deterministic generator (SplitMix64), uniform in [−1, 1).

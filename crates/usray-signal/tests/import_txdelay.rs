@@ -1,0 +1,102 @@
+//! PyMUST-style MATLAB files of a phased (P4-2v) and a convex (C5-2v) array
+//! with diverging and focused transmits (`param.TXdelay` from PyMUST's
+//! `txdelay`, SIMUS point targets; `tests/data/import/`, made by
+//! `tests/python/pymust_txdelay_mat.py`), imported with no options: the
+//! virtual sources and the focus fitted to the delays are the ones PyMUST used,
+//! and usray's delay-and-sum puts every insonified point target within 0.2 mm
+//! of where SIMUS put it.
+
+mod common;
+
+use std::path::PathBuf;
+
+use common::probes::localise;
+use usray_signal::mat::{read_mat, MatValue};
+use usray_signal::transmit::TransmitWave;
+use usray_signal::{import_mat, ChannelData};
+
+fn fixture(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/import/{name}"))
+}
+
+/// The `truth` struct's field `name`, as rows of two numbers (MATLAB `[n × 2]`).
+fn truth(name: &str, field: &str) -> Vec<[f64; 2]> {
+    let vars = read_mat(fixture(name)).unwrap();
+    let t = &vars.iter().find(|(n, _)| n == "truth").unwrap().1;
+    let Some(MatValue::Numeric { dims, re, .. }) = t.field(field) else {
+        panic!("{name}: truth.{field}");
+    };
+    let n = dims[0];
+    (0..n).map(|i| [re[i], re[n + i]]).collect()
+}
+
+/// Imports `name`, checks each transmit's kind and recovered point against
+/// `truth.sources_m` (to `tol_m`) and the fit residual, and localises the
+/// point targets; returns the worst recovery error and the data.
+fn import_and_check(name: &str, kind: &str, probe: &str) -> (f64, ChannelData) {
+    let ch = import_mat(fixture(name)).unwrap();
+    assert_eq!(ch.meta.probe.kind, probe, "{name}");
+    let sources = truth(name, "sources_m");
+    assert_eq!(ch.n_transmits(), sources.len(), "{name}");
+    let fit = &ch.meta.extra["source"]["transmit_fit"];
+    let mut worst: f64 = 0.0;
+    for (i, (t, want)) in ch.meta.transmits.iter().zip(&sources).enumerate() {
+        assert_eq!(t.kind, kind, "{name} transmit {i}");
+        let got = match TransmitWave::from_meta(i, t).unwrap() {
+            TransmitWave::Diverging { source_m } => source_m,
+            TransmitWave::Focused { focus_m } => focus_m,
+            w => panic!("{name} transmit {i}: {w:?}"),
+        };
+        let err = (got[0] - want[0]).hypot(got[1] - want[1]);
+        let residual = fit["transmits"][i]["max_residual_samples"]
+            .as_f64()
+            .unwrap();
+        eprintln!(
+            "{name} transmit {i}: {kind} point ({:.4}, {:.4}) mm recovered as ({:.4}, {:.4}) mm, error {:.2e} mm, largest delay residual {residual:.2e} samples",
+            want[0] * 1e3, want[1] * 1e3, got[0] * 1e3, got[1] * 1e3, err * 1e3
+        );
+        assert!(
+            residual < 1e-3,
+            "{name} transmit {i}: residual {residual} samples"
+        );
+        worst = worst.max(err);
+    }
+    let points = truth(name, "points_m");
+    let (xs, zs): (Vec<f64>, Vec<f64>) = points.iter().map(|p| (p[0], p[1])).unzip();
+    let (loc, seen) = localise(name, &ch, &xs, &zs);
+    eprintln!(
+        "{name}: worst localisation {:.3} mm over {seen} insonified targets",
+        loc * 1e3
+    );
+    assert!(
+        seen >= 3.min(points.len()),
+        "{name}: only {seen} targets insonified"
+    );
+    (worst, ch)
+}
+
+#[test]
+fn phased_diverging_sources_recovered_and_points_in_place() {
+    let (err, ch) = import_and_check("p4_diverging.mat", "diverging", "phased");
+    assert!(err < 1e-9, "virtual source off by {err} m");
+    // PyMUST's clock: the first element fires at 0 and SIMUS samples from then
+    // on, so t0_s = min_e τ_e (negative for a tilted virtual source).
+    assert!(ch.meta.t0_for(0) < 0.0 && ch.meta.t0_for(1) > -1e-12);
+}
+
+#[test]
+fn phased_focused_in_wavelengths_recovered_and_points_in_place() {
+    let (err, ch) = import_and_check("p4_focused.mat", "focused", "phased");
+    assert!(err < 1e-9, "focus off by {err} m");
+    let used = ch.meta.extra["source"]["used"]["transmit_delays"]
+        .as_str()
+        .unwrap();
+    assert!(used.contains("wavelengths"), "{used}");
+}
+
+#[test]
+fn convex_diverging_sources_recovered_and_points_in_place() {
+    let (err, ch) = import_and_check("c5_diverging.mat", "diverging", "convex");
+    assert!(err < 1e-9, "virtual source off by {err} m");
+    assert_eq!(ch.meta.probe.extra["radius_m"].as_f64(), Some(49.57e-3));
+}
