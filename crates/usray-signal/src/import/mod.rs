@@ -32,6 +32,7 @@ use std::path::Path;
 
 pub use axes::Axis;
 
+use crate::array::ArrayKind;
 use crate::channels::ChannelData;
 use crate::error::{Result, SignalError};
 use crate::mat::read_mat;
@@ -206,6 +207,38 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
         return fmc::import(path, &vars, options);
     }
     plane_wave::import(path, &vars, options)
+}
+
+/// The largest pitch, in wavelengths at the centre frequency, of a flat array
+/// imported as `phased` (P4-2v: 0.53).
+pub const PHASED_PITCH_WAVELENGTHS: f64 = 0.6;
+
+/// CONTRACT §2's `probe.kind` of `kind`.
+pub(crate) fn kind_name(kind: ArrayKind) -> &'static str {
+    match kind {
+        ArrayKind::Linear => "linear",
+        ArrayKind::Phased => "phased",
+        ArrayKind::Convex => "convex",
+    }
+}
+
+/// The kind of a flat array of pitch `pitch_m` at sound speed `c` and centre
+/// frequency `fc`: `phased` when the pitch is at most
+/// [`PHASED_PITCH_WAVELENGTHS`] wavelengths (phased arrays are built near λ/2
+/// to steer without grating lobes; a file does not say which it is), with the
+/// note recording that; else `linear`.
+pub(crate) fn flat_kind(pitch_m: f64, c: f64, fc: f64) -> (ArrayKind, Option<String>) {
+    let limit_m = PHASED_PITCH_WAVELENGTHS * c / fc;
+    if pitch_m <= limit_m {
+        let note = format!(
+            "a flat array of pitch {:.3} mm, at most {PHASED_PITCH_WAVELENGTHS} wavelengths ({:.3} mm at fc): recorded as a phased array (sector image)",
+            pitch_m * 1e3,
+            limit_m * 1e3
+        );
+        (ArrayKind::Phased, Some(note))
+    } else {
+        (ArrayKind::Linear, None)
+    }
 }
 
 /// `data` if it passes [`ChannelData::validate`] (every field in its physical

@@ -11,7 +11,7 @@ use super::delays::{self, transmit_waves};
 use super::quantities::{AngleUnit, Numbers, Params, Quantity};
 use super::record::Record;
 use super::samples;
-use super::{validated, ImportOptions};
+use super::{flat_kind, kind_name, validated, ImportOptions};
 use crate::array::{ArrayGeometry, ArrayKind, RADIUS_KEY};
 use crate::channels::{
     ChannelData, ChannelMeta, ProbeMeta, TransmitMeta, CHANNELS_FORMAT, FRAME_KEY,
@@ -356,18 +356,13 @@ fn array_geometry(
             }
         },
     };
-    let wavelength_m = c / fc;
     let kind = match radius {
         Some(_) => ArrayKind::Convex,
-        None if pitch_m <= PHASED_PITCH_WAVELENGTHS * wavelength_m => {
-            rec.assumed.push(format!(
-                "a flat array of pitch {:.3} mm, at most {PHASED_PITCH_WAVELENGTHS} wavelengths ({:.3} mm at fc): recorded as a phased array (sector image)",
-                pitch_m * 1e3,
-                PHASED_PITCH_WAVELENGTHS * wavelength_m * 1e3
-            ));
-            ArrayKind::Phased
+        None => {
+            let (kind, note) = flat_kind(pitch_m, c, fc);
+            rec.assumed.extend(note);
+            kind
         }
-        None => ArrayKind::Linear,
     };
     let mut extra = Map::new();
     if let Some(r) = radius {
@@ -380,19 +375,6 @@ fn array_geometry(
         element_width_m,
         extra,
     })
-}
-
-/// The largest pitch, in wavelengths at the centre frequency, of a flat array
-/// imported as `phased` (P4-2v: 0.53).
-const PHASED_PITCH_WAVELENGTHS: f64 = 0.6;
-
-/// CONTRACT §2's `probe.kind` of `kind`.
-fn kind_name(kind: ArrayKind) -> &'static str {
-    match kind {
-        ArrayKind::Linear => "linear",
-        ArrayKind::Phased => "phased",
-        ArrayKind::Convex => "convex",
-    }
 }
 
 /// The RF: `forced` (a top-level name or `struct.field`), else the largest real
