@@ -100,3 +100,58 @@ fn convex_diverging_sources_recovered_and_points_in_place() {
     assert!(err < 1e-9, "virtual source off by {err} m");
     assert_eq!(ch.meta.probe.extra["radius_m"].as_f64(), Some(49.57e-3));
 }
+
+/// A `param` struct of 16 elements at 0.3 mm, 20 MHz, with `TXdelay` (seconds,
+/// [1 × 16]) and a radius, and 32 samples of RF.
+fn param_file(path: &std::path::Path, delays: &[f64], radius: f64) {
+    use common::{double, int16, mat_file, structure};
+    let p = structure(
+        "param",
+        &[
+            ("fs", double("", &[1, 1], &[20e6])),
+            ("fc", double("", &[1, 1], &[5e6])),
+            ("c", double("", &[1, 1], &[1540.0])),
+            ("pitch", double("", &[1, 1], &[0.3e-3])),
+            ("Nelements", double("", &[1, 1], &[16.0])),
+            ("radius", double("", &[1, 1], &[radius])),
+            ("TXdelay", double("", &[1, 16], delays)),
+        ],
+    );
+    let rf: Vec<i16> = (0..32 * 16).map(|i| (i % 7) as i16 - 3).collect();
+    std::fs::write(path, mat_file(&[p, int16("RF", &[32, 16], &rf)])).unwrap();
+}
+
+/// Delays that are no wave (a diverging law with one element a sample late)
+/// are refused, naming the variable, the transmit and each model's residual;
+/// the same law intact imports; a radius that is not a length is refused.
+#[test]
+fn delays_that_fit_no_wave_are_refused_naming_the_transmit() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.mat");
+    let v = [1e-3, -8e-3];
+    let law: Vec<f64> = (0..16)
+        .map(|e| {
+            let x = (e as f64 - 7.5) * 0.3e-3;
+            ((x - v[0]).hypot(v[1]) - v[0].hypot(v[1])) / 1540.0
+        })
+        .collect();
+    let min = law.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mut d: Vec<f64> = law.iter().map(|t| t - min).collect();
+    param_file(&path, &d, f64::INFINITY);
+    let ch = import_mat(&path).unwrap();
+    assert_eq!(ch.meta.transmits[0].kind, "diverging");
+    d[5] += 1.0 / 20e6;
+    param_file(&path, &d, f64::INFINITY);
+    let e = import_mat(&path).unwrap_err().to_string();
+    eprintln!("{e}");
+    assert!(
+        e.contains("bad.mat")
+            && e.contains("param.TXdelay")
+            && e.contains("transmit 0")
+            && e.contains("fits no transmit model"),
+        "{e}"
+    );
+    param_file(&path, &d, -0.04);
+    let e = import_mat(&path).unwrap_err().to_string();
+    assert!(e.contains("param.radius"), "{e}");
+}

@@ -11,7 +11,11 @@
 //!   top-level variables, under any of their usual spellings (`fs`,
 //!   `sampling_frequency`, `TXangle`, `angles_deg`, …); the RF is the largest real
 //!   numeric array, its axes matched to samples × elements × transmits (×
-//!   frames) in any order by the counts the parameters give.
+//!   frames) in any order by the counts the parameters give. A file's
+//!   per-element transmit delays (PyMUST's `param.TXdelay`) that are not plane
+//!   waves at known angles give each transmit's wave — plane, diverging or
+//!   focused — by a fit on the true element positions (`delays`, `wave_fit`);
+//!   a finite `radius` (PyMUST's `param.radius`) makes the array convex.
 //!
 //! What the file lacks is either supplied by [`ImportOptions`] (the CLI's flags,
 //! which override the file), assumed with a stated reason (element width = pitch,
@@ -189,7 +193,12 @@ pub fn import_mat(path: impl AsRef<Path>) -> Result<ChannelData> {
 /// passes the array centre `(L/2)·|sin θ|/c` later (`L` the aperture), so each
 /// transmit's `t0_s = t0 − (L/2)·|sin θ|/c`. A file's per-element transmit delays,
 /// when present and linear in the element position, give that centre-crossing
-/// time instead (their value at `x = 0`).
+/// time instead (their value at `x = 0`). Delays that are not linear, or come
+/// without angles, or fire a convex array, are fitted transmit by transmit: the
+/// plane, diverging or focused wave whose delay law `τ_e` (CONTRACT §1) gives
+/// `d_e = a + τ_e` within 0.1 sample, `t0_s = t0 − a` (the fit and its
+/// residual are recorded in `source.transmit_fit`; no fit is an error naming
+/// the transmit).
 ///
 /// Full-matrix capture (`synaptus`): `fs` (MHz), `MWB` (µs, time of sample 0
 /// after the excitation), `cp` (m/s), `nTotElem`, optional `fc` (Hz); the sum

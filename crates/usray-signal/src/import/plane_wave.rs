@@ -1,4 +1,5 @@
-//! Plane-wave acquisitions, found by content (see the [`super`] module): the
+//! Acquisitions found by content (see the [`super`] module): plane waves, or the
+//! waves their transmit delays describe on a flat or convex array; the
 //! parameters by their spellings, the RF by its size and the counts, every
 //! quantity's origin recorded.
 
