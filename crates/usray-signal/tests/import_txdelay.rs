@@ -155,3 +155,66 @@ fn delays_that_fit_no_wave_are_refused_naming_the_transmit() {
     let e = import_mat(&path).unwrap_err().to_string();
     assert!(e.contains("param.radius"), "{e}");
 }
+
+/// Verasonics keeps each transmit's delays, in wavelengths, in the struct
+/// array `TX(k).Delay`: two diverging waves on a 16-element flat array come
+/// back at their virtual sources.
+#[test]
+fn verasonics_tx_struct_array_delays_are_fitted() {
+    use common::{double, int16, mat_file, struct_array, structure};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("vs.mat");
+    let (fc, c) = (5e6, 1540.0);
+    let sources = [[-2e-3, -6e-3], [2e-3, -6e-3]];
+    let tx: Vec<Vec<Vec<u8>>> = sources
+        .iter()
+        .map(|v| {
+            let tau: Vec<f64> = (0..16)
+                .map(|e| {
+                    let x = (e as f64 - 7.5) * 0.3e-3;
+                    (x - v[0]).hypot(v[1]) / c
+                })
+                .collect();
+            let min = tau.iter().cloned().fold(f64::INFINITY, f64::min);
+            let wavelengths: Vec<f64> = tau.iter().map(|t| (t - min) * fc).collect();
+            vec![
+                double("", &[1, 3], &[0.0, 0.0, 0.0]),
+                double("", &[1, 16], &wavelengths),
+            ]
+        })
+        .collect();
+    let p = structure(
+        "P",
+        &[
+            ("fs", double("", &[1, 1], &[20e6])),
+            ("fc", double("", &[1, 1], &[fc])),
+            ("c", double("", &[1, 1], &[c])),
+            ("pitch", double("", &[1, 1], &[0.3e-3])),
+            ("Nelements", double("", &[1, 1], &[16.0])),
+        ],
+    );
+    let rf: Vec<i16> = (0..32 * 16 * 2).map(|i| (i % 5) as i16 - 2).collect();
+    std::fs::write(
+        &path,
+        mat_file(&[
+            p,
+            struct_array("TX", &["Origin", "Delay"], &tx),
+            int16("RF", &[32, 16, 2], &rf),
+        ]),
+    )
+    .unwrap();
+    let ch = import_mat(&path).unwrap();
+    let used = ch.meta.extra["source"]["used"]["transmit_delays"]
+        .as_str()
+        .unwrap();
+    assert!(used.starts_with("TX(k).Delay (in wavelengths"), "{used}");
+    for (i, want) in sources.iter().enumerate() {
+        let TransmitWave::Diverging { source_m } =
+            TransmitWave::from_meta(i, &ch.meta.transmits[i]).unwrap()
+        else {
+            panic!("transmit {i}: {:?}", ch.meta.transmits[i]);
+        };
+        let err = (source_m[0] - want[0]).hypot(source_m[1] - want[1]);
+        assert!(err < 1e-12, "transmit {i}: {source_m:?} vs {want:?}");
+    }
+}

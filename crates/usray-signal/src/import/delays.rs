@@ -18,7 +18,7 @@ use serde_json::{json, Value};
 use super::record::Record;
 use super::wave_fit::{self, fit_line};
 use crate::array::ArrayGeometry;
-use crate::mat::MatValue;
+use crate::mat::{MatFile, MatValue};
 use crate::transmit::TransmitWave;
 
 /// Largest residual, in sampling periods, between a file's delays and the
@@ -236,6 +236,44 @@ fn numeric<'a>(name: &str, value: &'a MatValue) -> Result<(&'a [usize], &'a [f64
             "`{name}` (transmit delays) is not a real numeric array"
         )),
     }
+}
+
+/// Verasonics' per-transmit delays: the field `Delay` (any case) of a top-level
+/// struct array (`TX(k).Delay`, wavelengths), every element a numeric row of
+/// the same length (more than one element), as `(name, [n_transmits × n_elements]
+/// matrix)`; `None` if the file has no such struct.
+pub(super) fn struct_array_delays(vars: &MatFile) -> Option<(String, MatValue)> {
+    vars.iter().find_map(|(name, v)| {
+        let MatValue::Struct { fields, elems, .. } = v else {
+            return None;
+        };
+        let f = fields
+            .iter()
+            .position(|f| f.eq_ignore_ascii_case("delay"))?;
+        let rows: Vec<&[f64]> = elems
+            .iter()
+            .map(|e| match &e[f] {
+                MatValue::Numeric { re, im: None, .. } => Some(re.as_slice()),
+                _ => None,
+            })
+            .collect::<Option<_>>()?;
+        let n_el = rows.first()?.len();
+        if n_el < 2 || rows.iter().any(|r| r.len() != n_el) {
+            return None;
+        }
+        let n_tx = rows.len();
+        // Column-major [n_tx × n_el]: element e of transmit k at e·n_tx + k.
+        let re = (0..n_el)
+            .flat_map(|e| rows.iter().map(move |r| r[e]))
+            .collect();
+        let value = MatValue::Numeric {
+            class: crate::mat::NumericClass::Double,
+            dims: vec![n_tx, n_el],
+            re,
+            im: None,
+        };
+        Some((format!("{name}(k).{}", fields[f]), value))
+    })
 }
 
 /// The number of transmits the delays `value` hold for `n_el` elements: the

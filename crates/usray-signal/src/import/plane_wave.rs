@@ -86,13 +86,18 @@ fn from_variables(
 
     // The transmit count the delays give when no angles do (PyMUST's TXdelay
     // of diverging or focused waves); all-zero delays say nothing.
-    let delays_found = rec.params.get(Quantity::TransmitDelays);
+    // Else Verasonics' struct array `TX(k).Delay`, gathered into one matrix.
+    let tx_struct = delays::struct_array_delays(vars);
+    let delays_found: Option<(String, &MatValue)> = match rec.params.get(Quantity::TransmitDelays) {
+        Some(f) => Some((f.name, f.value)),
+        None => tx_struct.as_ref().map(|(n, v)| (n.clone(), v)),
+    };
     let has_delays = delays_found.as_ref().is_some_and(
-        |d| !matches!(d.value, MatValue::Numeric { re, .. } if re.iter().all(|&v| v == 0.0)),
+        |d| !matches!(d.1, MatValue::Numeric { re, .. } if re.iter().all(|&v| v == 0.0)),
     );
     let n_transmits_hint = angles.as_ref().map(Vec::len).or_else(|| {
         let n_el = n_elements_file.filter(|_| has_delays)?;
-        delays::transmit_count(delays_found.as_ref()?.value, n_el)
+        delays::transmit_count(delays_found.as_ref()?.1, n_el)
     });
 
     // Step 3: the RF array and the roles of its axes.
@@ -221,7 +226,7 @@ fn from_variables(
     // Step 5: each transmit's wave and clock (CONTRACT §1: t = 0 when the wave
     // passes the probe-frame origin).
     let waves = transmit_waves(
-        delays_found.as_ref().map(|d| (d.name.as_str(), d.value)),
+        delays_found.as_ref().map(|d| (d.0.as_str(), d.1)),
         angles.as_deref(),
         n_transmits,
         &array,
