@@ -11,6 +11,7 @@ mod common;
 use std::path::PathBuf;
 
 use common::probes::localise;
+use usray_signal::array::ArrayGeometry;
 use usray_signal::mat::{read_mat, MatValue};
 use usray_signal::transmit::TransmitWave;
 use usray_signal::{import_mat, ChannelData};
@@ -59,6 +60,24 @@ fn import_and_check(name: &str, kind: &str, probe: &str) -> (f64, ChannelData) {
             residual < 1e-3,
             "{name} transmit {i}: residual {residual} samples"
         );
+        // PyMUST's clock: the first element fires at 0 and SIMUS samples from
+        // then on (t0 = 0), so sample 0 is at min_e τ_e on usray's clock.
+        let truth_wave = match kind {
+            "diverging" => TransmitWave::Diverging { source_m: *want },
+            _ => TransmitWave::Focused { focus_m: *want },
+        };
+        let first_firing = ArrayGeometry::from_meta(&ch.meta.probe)
+            .unwrap()
+            .elements()
+            .iter()
+            .map(|e| truth_wave.element_delay_s(e.centre_m, ch.meta.sound_speed_m_s))
+            .fold(f64::INFINITY, f64::min);
+        let t0 = ch.meta.t0_for(i);
+        eprintln!("{name} transmit {i}: t0_s {t0:.6e} s, first firing {first_firing:.6e} s");
+        assert!(
+            (t0 - first_firing).abs() < 1e-15,
+            "{name} transmit {i}: t0_s {t0} vs first firing {first_firing}"
+        );
         worst = worst.max(err);
     }
     let points = truth(name, "points_m");
@@ -79,8 +98,8 @@ fn import_and_check(name: &str, kind: &str, probe: &str) -> (f64, ChannelData) {
 fn phased_diverging_sources_recovered_and_points_in_place() {
     let (err, ch) = import_and_check("p4_diverging.mat", "diverging", "phased");
     assert!(err < 1e-9, "virtual source off by {err} m");
-    // PyMUST's clock: the first element fires at 0 and SIMUS samples from then
-    // on, so t0_s = min_e τ_e (negative for a tilted virtual source).
+    // A tilted virtual source's first firing precedes its wave's passing the
+    // origin.
     assert!(ch.meta.t0_for(0) < 0.0 && ch.meta.t0_for(1) > -1e-12);
 }
 
