@@ -53,7 +53,9 @@ pub(super) fn transmit_waves(
     let rows = match delays {
         Some((name, value)) => {
             let (dims, re) = numeric(name, value)?;
-            if re.iter().all(|&d| d == 0.0) {
+            // All zero on a flat array: the 0° plane wave's or unset, the
+            // angles decide; on a convex one, a wave from the arc's centre.
+            if re.iter().all(|&d| d == 0.0) && array.kind.is_flat() {
                 None
             } else {
                 Some((name, delay_rows(name, dims, re, n_el, n_tx)?))

@@ -149,7 +149,8 @@ fn fit_circular(elements: &[Element<f64>], delays_s: &[f64], c: f64) -> Option<F
     if elements.len() < 4 {
         return None;
     }
-    let (mut b, mut p, sigma) = circular_start(elements, delays_s, c)?;
+    let (mut b, mut p, sigma) = circular_start(elements, delays_s, c)
+        .or_else(|| curvature_centre_start(elements, delays_s, c))?;
     // Gauss–Newton on r_e = b + σ‖e − p‖/c − d_e, unknowns (b, p_x, p_z).
     for _ in 0..100 {
         let rows: Vec<(Vec<f64>, f64)> = elements
@@ -228,6 +229,30 @@ fn circular_start(
     };
     let out = (big_b / (c * k), [px / k, pz / k], sigma);
     (out.0.is_finite() && out.1.iter().all(|v| v.is_finite())).then_some(out)
+}
+
+/// The start for delays the closed form cannot place (equal delays make its
+/// `B` and `K` columns collinear): a convex array firing every element at once
+/// sends a circular wave from its centre of curvature, where the end element's
+/// normal crosses `x = 0`. `None` on a flat array.
+fn curvature_centre_start(
+    elements: &[Element<f64>],
+    delays_s: &[f64],
+    c: f64,
+) -> Option<(f64, [f64; 2], f64)> {
+    let end = elements.last()?;
+    let ([x, z], [nx, nz]) = (end.centre_m, end.normal);
+    if nx == 0.0 {
+        return None;
+    }
+    let p = [0.0, z - x * nz / nx];
+    let b = elements
+        .iter()
+        .zip(delays_s)
+        .map(|(e, d)| d - (e.centre_m[0] - p[0]).hypot(e.centre_m[1] - p[1]) / c)
+        .sum::<f64>()
+        / elements.len() as f64;
+    Some((b, p, 1.0))
 }
 
 /// The least-squares step `δ` minimising `Σ (J_e·δ + r_e)²` over the rows
@@ -396,6 +421,23 @@ mod tests {
                 assert!(f.max_residual_s < 1e-13, "{w:?}: {}", f.max_residual_s);
             }
         }
+    }
+
+    /// A convex array firing every element at once: a diverging wave from
+    /// its centre of curvature `(0, −h)`.
+    #[test]
+    fn equal_delays_on_a_convex_array_diverge_from_its_centre() {
+        let els = c5();
+        let h = 49.57e-3 * (63.5 * 2.0 * (0.508e-3f64 / (2.0 * 49.57e-3)).asin()).cos();
+        let f = fit_wave(&els, &[0.0; 128], C, 1e-9).unwrap();
+        let TransmitWave::Diverging { source_m } = f.wave else {
+            panic!("{:?}", f.wave);
+        };
+        assert!(
+            source_m[0].abs() < 1e-12 && (source_m[1] + h).abs() < 1e-12,
+            "{source_m:?}"
+        );
+        assert!(f.max_residual_s < 1e-15);
     }
 
     /// Delays that are no wave at all (random, one element late by a
