@@ -9,6 +9,15 @@ use usray_signal::{export_uff, import_mat, import_uff, ChannelData};
 
 const MODULES: &[&str] = &["h5py", "numpy", "pyuff_ustb"];
 
+/// The tests here take turns: HDF5 locks a file through its open file
+/// description, which a Python child that another test thread spawns while the
+/// file is open inherits, so a concurrent reopen can fail with EAGAIN.
+static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn turn() -> std::sync::MutexGuard<'static, ()> {
+    TURN.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Channel data without the keys UFF does not carry (everything but `frame` in
 /// the `extra` maps: the probe's name, the import's `source`, …).
 fn carried(mut ch: ChannelData) -> ChannelData {
@@ -25,6 +34,7 @@ fn carried(mut ch: ChannelData) -> ChannelData {
 /// (t0 = initial_time + delay) exactly.
 #[test]
 fn a_file_written_by_pyuff_ustb_imports_to_the_stated_channel_data() {
+    let _turn = turn();
     let dir = tempfile::tempdir().unwrap();
     let (uff, expected) = (dir.path().join("s.uff"), dir.path().join("expected.json"));
     let Some(()) = usray_testdata::run_python(
@@ -46,6 +56,7 @@ fn a_file_written_by_pyuff_ustb_imports_to_the_stated_channel_data() {
 /// on USTB's clock, with the samples unchanged.
 #[test]
 fn spherical_waves_written_by_pyuff_ustb_import_as_diverging_and_focused() {
+    let _turn = turn();
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/uff");
     let (uff, expected) = (
         data.join("spherical.uff"),
@@ -78,6 +89,7 @@ fn spherical_waves_written_by_pyuff_ustb_import_as_diverging_and_focused() {
 /// imports the file to the same channel data.
 #[test]
 fn points_round_trip_through_uff_and_read_in_pyuff_ustb() {
+    let _turn = turn();
     let Some(points) = usray_testdata::data_file("peers/points.json") else {
         return;
     };
@@ -97,6 +109,7 @@ fn points_round_trip_through_uff_and_read_in_pyuff_ustb() {
 /// tagged `frame` 0…31.
 #[test]
 fn frames_round_trip_through_uff() {
+    let _turn = turn();
     let Some(mat) = usray_testdata::data_file("real/PWI_disk.mat") else {
         return;
     };
@@ -142,6 +155,7 @@ fn set_number(file: &hdf5::File, path: &str, v: f64) {
 /// each refused with an error naming the file and the field.
 #[test]
 fn what_usray_cannot_map_is_refused_naming_it() {
+    let _turn = turn();
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     assert_eq!(
@@ -219,6 +233,7 @@ fn what_usray_cannot_map_is_refused_naming_it() {
 /// nothing is left behind.
 #[test]
 fn irregular_frames_are_not_written() {
+    let _turn = turn();
     let mut ch = small();
     let mut second = ch.meta.transmits[0].clone();
     second.angle_rad = 0.2;
@@ -284,6 +299,7 @@ fn round_trip(ch: &ChannelData, uff: &Path) {
 /// where USTB's frame (apex at the origin) puts them.
 #[test]
 fn convex_and_circular_waves_round_trip_through_uff() {
+    let _turn = turn();
     let probes = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/probes");
     let dir = tempfile::tempdir().unwrap();
     let c5 = read_channels(probes.join("c5_diverging.json")).unwrap();
@@ -306,6 +322,7 @@ fn convex_and_circular_waves_round_trip_through_uff() {
 /// angles and layout) is refused naming the flag, not silently ignored.
 #[test]
 fn options_a_uff_import_does_not_use_are_refused() {
+    let _turn = turn();
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("s.uff");
     export_uff(&p, &small()).unwrap();
