@@ -120,13 +120,14 @@ pub enum Command {
         #[command(flatten)]
         common: Common,
     },
-    /// Convert measured data (MATLAB .mat v5 or v7.3, or UFF .uff plane-wave
-    /// channel data) into channel data (CONTRACT §2), with the time origin moved
-    /// to CONTRACT §1's clock. In a .mat file the acquisition is found by
-    /// content: the parameters under their usual spellings in any struct or at
-    /// the top level, the RF as the largest numeric array with its axes matched
-    /// by the counts. What was used and assumed is printed and kept in the
-    /// output's `source`; the flags override the file.
+    /// Convert measured data (MATLAB .mat v5 or v7.3, or UFF .uff channel
+    /// data) into channel data (CONTRACT §2), with the time origin moved to
+    /// CONTRACT §1's clock. In a .mat file the acquisition is found by content:
+    /// the parameters under their usual spellings in any struct or at the top
+    /// level, the RF as the largest numeric array with its axes matched by the
+    /// counts; diverging and focused transmits (phased or convex arrays) are
+    /// fitted to the file's transmit delays. What was used and assumed is
+    /// printed and kept in the output's `source`; the flags override the file.
     Import {
         /// The file to convert.
         file: PathBuf,

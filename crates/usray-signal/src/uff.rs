@@ -1,9 +1,9 @@
 //! UFF channel data (USTB's ultrasound file format, also PICMUS's): import into
-//! CONTRACT §2 channel data and export from it, for plane-wave transmits on a
-//! linear array (import also reads spherical waves: diverging and focused).
+//! CONTRACT §2 channel data and export from it: plane, diverging and focused
+//! transmits on a linear (or phased) or a curvilinear (convex) array.
 //!
 //! Format: USTB's `+uff` classes (`uff.channel_data`, `uff.wave`, `uff.point`,
-//! `uff.linear_array`, `uff.pulse`) as stored in HDF5 by USTB and by `pyuff_ustb`
+//! `uff.linear_array`, `uff.curvilinear_array`, `uff.pulse`) as stored in HDF5 by USTB and by `pyuff_ustb`
 //! (3.0, the Python reader and writer USTB publishes): every object is a group
 //! with the attributes `class` (`"uff.channel_data"`, …), `name`, `array` and
 //! `size`; its properties are members — numbers as datasets with MATLAB's
@@ -18,9 +18,16 @@
 //!   data become transmits tagged `"frame": k` (CONTRACT §2's extension), in
 //!   frame-major order.
 //! - Probe: `uff.linear_array` (`N`, `pitch`, `element_width`, `geometry`), or a
-//!   plain `uff.probe` whose `geometry` is such an array. `geometry` is MATLAB
-//!   `[element, 7]` (HDF5 `[7, element]`): x, y, z, azimuth, elevation, width,
-//!   height. The elements must lie on `z = 0` at `x = (i - (N-1)/2)·pitch`.
+//!   plain `uff.probe` whose `geometry` is such an array; or
+//!   `uff.curvilinear_array` (`radius` too), a `convex` probe. `geometry` is
+//!   MATLAB `[element, 7]` (HDF5 `[7, element]`): x, y, z, azimuth, elevation,
+//!   width, height. A linear array's elements must lie on `z = 0` at
+//!   `x = (i - (N-1)/2)·pitch`; a curvilinear array's where USTB puts them, the
+//!   arc's apex at the origin, which is `s = R − h` above usray's origin (the
+//!   chord through the end elements, CONTRACT §1): element positions, wave
+//!   sources and clocks are moved by `s` on import and export (`curvilinear`).
+//!   A flat array whose pitch is at most 0.6 wavelength is imported as `phased`
+//!   (`crate::import::PHASED_PITCH_WAVELENGTHS`), else `linear`.
 //! - Waves: `wavefront` plane (0), or — in files without `wavefront` — a `source`
 //!   at infinite `distance`; the steering angle is `source.azimuth`, the
 //!   elevation must be 0. Import also reads `wavefront` spherical (1) with a
@@ -39,20 +46,18 @@
 //! (USTB's `midprocess.das` samples the data at the plane-wave delay
 //! `(x sin θ + z cos θ)/c - delay` on the `initial_time` axis). With the array
 //! centred on the origin that is CONTRACT §1's clock, so transmit `n` has
-//! `t0_s = initial_time + sequence(n).delay`. Import sets the global `t0_s` to
-//! that when every wave has the same delay, else `initial_time` with a `t0_s` on
-//! each transmit; export writes `initial_time = t0_s` and
-//! `delay = t0_for(n) - t0_s`.
+//! `t0_s = initial_time + sequence(n).delay` (plus, for a curvilinear array, the
+//! usray time at which wave `n` passes USTB's origin). Import sets the global
+//! `t0_s` to that when every wave has the same value, else `initial_time` with a
+//! `t0_s` on each transmit; export writes `initial_time = t0_s` and
+//! `delay = t0_for(n) - t0_s` (minus that passing time).
 //!
 //! Not supported, each refused naming it: IQ data (`modulation_frequency` ≠ 0, or
-//! complex `data`), other probes (matrix; curvilinear: USTB's
-//! `uff.curvilinear_array` puts the arc's apex on the origin where usray puts
-//! the chord through the end elements, PyMUST's convention, so its positions
-//! and each wave's time origin would need moving by `R − h`), photoacoustic
-//! waves, elevated waves, a spherical wave's source on `z = 0`, several
-//! `uff.channel_data` objects in one file; export writes plane waves on flat
-//! arrays only.
+//! complex `data`), other probes (matrix arrays), photoacoustic waves, elevated
+//! waves, a spherical wave's source on `z = 0` or (curvilinear) between the
+//! apex and the chord, several `uff.channel_data` objects in one file.
 
+mod curvilinear;
 mod read;
 mod write;
 
@@ -84,8 +89,7 @@ const GEOMETRY_ROWS: usize = 7;
 /// pitches (single precision and rounding in the writer).
 const GEOMETRY_TOLERANCE_PITCHES: f64 = 1e-3;
 
-/// Convert the plane-wave channel data of a UFF file into CONTRACT §2 channel
-/// data (see the [module documentation](self) for the mapping).
+/// Convert the channel data of a UFF file into CONTRACT §2 channel data (see the [module documentation](self) for the mapping).
 pub fn import_uff(path: impl AsRef<Path>) -> Result<ChannelData> {
     import_uff_with(path, &ImportOptions::default())
 }
@@ -104,16 +108,15 @@ pub fn import_uff_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
 
 /// Write `ch` as a UFF file at `path` (atomically), readable by USTB and
 /// `pyuff_ustb`: one `uff.channel_data` named `channel_data` with a
-/// `uff.linear_array` probe, a `uff.pulse` holding the centre frequency and one
-/// plane `uff.wave` per transmit (per frame's transmit for frame-tagged data,
-/// whose frames must then repeat one sequence of angles and times).
+/// `uff.linear_array` probe (linear and phased) or a `uff.curvilinear_array`
+/// (convex), a `uff.pulse` holding the centre frequency and one `uff.wave` per
+/// transmit, plane or spherical (per frame's transmit for frame-tagged data,
+/// whose frames must then repeat one sequence of waves and times).
 /// Samples are written as `single`, the other numbers as `double`.
 ///
 /// # Errors
-/// Channel data that fail [`ChannelData::validate`], whose frames do not form a
-/// regular grid, whose probe is convex or whose transmits are not all plane
-/// waves (a phased probe is written as the linear array it is geometrically);
-/// a write that fails (the error names `path`).
+/// Channel data that fail [`ChannelData::validate`] or whose frames do not form
+/// a regular grid; a write that fails (the error names `path`).
 pub fn export_uff(path: impl AsRef<Path>, ch: &ChannelData) -> Result<()> {
     let path = path.as_ref();
     ch.validate().map_err(SignalError::Invalid)?;

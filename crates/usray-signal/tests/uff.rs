@@ -9,6 +9,15 @@ use usray_signal::{export_uff, import_mat, import_uff, ChannelData};
 
 const MODULES: &[&str] = &["h5py", "numpy", "pyuff_ustb"];
 
+/// The tests here take turns: HDF5 locks a file through its open file
+/// description, which a Python child that another test thread spawns while the
+/// file is open inherits, so a concurrent reopen can fail with EAGAIN.
+static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn turn() -> std::sync::MutexGuard<'static, ()> {
+    TURN.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Channel data without the keys UFF does not carry (everything but `frame` in
 /// the `extra` maps: the probe's name, the import's `source`, …).
 fn carried(mut ch: ChannelData) -> ChannelData {
@@ -25,6 +34,7 @@ fn carried(mut ch: ChannelData) -> ChannelData {
 /// (t0 = initial_time + delay) exactly.
 #[test]
 fn a_file_written_by_pyuff_ustb_imports_to_the_stated_channel_data() {
+    let _turn = turn();
     let dir = tempfile::tempdir().unwrap();
     let (uff, expected) = (dir.path().join("s.uff"), dir.path().join("expected.json"));
     let Some(()) = usray_testdata::run_python(
@@ -46,6 +56,7 @@ fn a_file_written_by_pyuff_ustb_imports_to_the_stated_channel_data() {
 /// on USTB's clock, with the samples unchanged.
 #[test]
 fn spherical_waves_written_by_pyuff_ustb_import_as_diverging_and_focused() {
+    let _turn = turn();
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/uff");
     let (uff, expected) = (
         data.join("spherical.uff"),
@@ -78,6 +89,7 @@ fn spherical_waves_written_by_pyuff_ustb_import_as_diverging_and_focused() {
 /// imports the file to the same channel data.
 #[test]
 fn points_round_trip_through_uff_and_read_in_pyuff_ustb() {
+    let _turn = turn();
     let Some(points) = usray_testdata::data_file("peers/points.json") else {
         return;
     };
@@ -97,6 +109,7 @@ fn points_round_trip_through_uff_and_read_in_pyuff_ustb() {
 /// tagged `frame` 0…31.
 #[test]
 fn frames_round_trip_through_uff() {
+    let _turn = turn();
     let Some(mat) = usray_testdata::data_file("real/PWI_disk.mat") else {
         return;
     };
@@ -137,11 +150,12 @@ fn set_number(file: &hdf5::File, path: &str, v: f64) {
     file.dataset(path).unwrap().write_raw(&[v]).unwrap();
 }
 
-/// IQ data, spherical waves, elevated plane waves, curvilinear probes, shifted
-/// elements and missing fields are each refused with an error naming the file
-/// and the field.
+/// IQ data, spherical waves without a source, elevated plane waves, a
+/// curvilinear probe without a radius, shifted elements and missing fields are
+/// each refused with an error naming the file and the field.
 #[test]
 fn what_usray_cannot_map_is_refused_naming_it() {
+    let _turn = turn();
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     assert_eq!(
@@ -181,7 +195,7 @@ fn what_usray_cannot_map_is_refused_naming_it() {
                     .write_scalar(&v)
                     .unwrap();
             }),
-            "uff.curvilinear_array",
+            "probe/radius` is missing",
         ),
         (
             edited(d, "shifted", |f| {
@@ -219,6 +233,7 @@ fn what_usray_cannot_map_is_refused_naming_it() {
 /// nothing is left behind.
 #[test]
 fn irregular_frames_are_not_written() {
+    let _turn = turn();
     let mut ch = small();
     let mut second = ch.meta.transmits[0].clone();
     second.angle_rad = 0.2;
@@ -238,37 +253,76 @@ fn irregular_frames_are_not_written() {
 
 /// Convex probes and non-plane transmits are refused by the writer (it would
 /// otherwise write a linear array or a plane wave at angle 0), naming the key.
-#[test]
-fn convex_probes_and_circular_waves_are_not_written() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut convex = small();
-    convex.meta.probe.kind = "convex".into();
-    convex
+/// `ch` written to UFF and imported back: the same channel data, the points
+/// of the diverging and focused waves to 1e-15 m and the times of sample 0 to
+/// 1e-20 s (a convex array's waves pass through USTB's frame and back,
+/// `usray_signal::uff`).
+fn round_trip(ch: &ChannelData, uff: &Path) {
+    export_uff(uff, ch).unwrap();
+    let back = import_uff(uff).unwrap();
+    assert_eq!(back.samples, ch.samples);
+    assert_eq!(back.n_samples, ch.n_samples);
+    let (p, q) = (&back.meta.probe, &ch.meta.probe);
+    assert_eq!(
+        (&p.kind, p.n_elements, p.pitch_m, p.element_width_m),
+        (&q.kind, q.n_elements, q.pitch_m, q.element_width_m)
+    );
+    assert_eq!(p.extra.get("radius_m"), q.extra.get("radius_m"));
+    for (i, (a, b)) in back
         .meta
-        .probe
-        .extra
-        .insert("radius_m".into(), 0.02.into());
-    let mut diverging = small();
-    diverging.meta.transmits[0].kind = "diverging".into();
-    diverging.meta.transmits[0]
-        .extra
-        .insert("virtual_source_m".into(), serde_json::json!([0.0, -0.01]));
-    for (ch, key) in [(convex, "probe.kind"), (diverging, "transmits[0].kind")] {
-        let p = dir.path().join("x.uff");
-        let e = export_uff(&p, &ch).unwrap_err().to_string();
-        assert!(e.contains(key) && e.contains("x.uff"), "{e}");
+        .transmits
+        .iter()
+        .zip(&ch.meta.transmits)
+        .enumerate()
+    {
+        assert_eq!(a.kind, b.kind, "transmit {i}");
+        let (ta, tb) = (back.meta.t0_for(i), ch.meta.t0_for(i));
+        assert!((ta - tb).abs() <= 1e-20, "transmit {i}: t0 {ta} vs {tb}");
+        for key in ["virtual_source_m", "focus_m"] {
+            if let Some(v) = b.extra.get(key) {
+                for k in 0..2 {
+                    let (u, w) = (a.extra[key][k].as_f64().unwrap(), v[k].as_f64().unwrap());
+                    assert!(
+                        (u - w).abs() <= 1e-15,
+                        "transmit {i} {key}[{k}]: {u} vs {w}"
+                    );
+                }
+            }
+        }
     }
-    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
-    // A phased probe is a linear array geometrically: written.
-    let mut phased = small();
-    phased.meta.probe.kind = "phased".into();
-    export_uff(dir.path().join("phased.uff"), &phased).unwrap();
+    assert_eq!(back.n_transmits(), ch.n_transmits());
+}
+
+/// PyMUST's convex (C5-2v) diverging and phased (P4-2v) focused channel data
+/// (`tests/data/probes/`) go through UFF and back; pyuff_ustb reads the convex
+/// file as USTB's `CurvilinearArray` with the elements and the virtual sources
+/// where USTB's frame (apex at the origin) puts them.
+#[test]
+fn convex_and_circular_waves_round_trip_through_uff() {
+    let _turn = turn();
+    let probes = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/probes");
+    let dir = tempfile::tempdir().unwrap();
+    let c5 = read_channels(probes.join("c5_diverging.json")).unwrap();
+    let uff = dir.path().join("c5.uff");
+    round_trip(&c5, &uff);
+    // P4-2v's pitch, 0.30 mm = 0.53 wavelength at 2.72 MHz, makes it phased again.
+    let p4 = read_channels(probes.join("p4_focused.json")).unwrap();
+    round_trip(&p4, &dir.path().join("p4.uff"));
+    usray_testdata::run_python(
+        MODULES,
+        "tests/python/uff_check.py",
+        &[
+            uff.as_os_str(),
+            probes.join("c5_diverging.json").as_os_str(),
+        ],
+    );
 }
 
 /// An option a UFF file's import does not use (the file states the clock,
 /// angles and layout) is refused naming the flag, not silently ignored.
 #[test]
 fn options_a_uff_import_does_not_use_are_refused() {
+    let _turn = turn();
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("s.uff");
     export_uff(&p, &small()).unwrap();

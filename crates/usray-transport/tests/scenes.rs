@@ -16,7 +16,13 @@ fn shipped_scenes_load_and_render() {
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
         .collect();
     names.sort();
-    for want in ["cylinder.toml", "ring.toml", "valve.toml", "phantom.toml"] {
+    for want in [
+        "cylinder.toml",
+        "ring.toml",
+        "valve.toml",
+        "phantom.toml",
+        "valve_phased.toml",
+    ] {
         assert!(
             names.iter().any(|p| p.ends_with(want)),
             "missing scene {want}"

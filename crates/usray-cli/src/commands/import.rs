@@ -80,7 +80,8 @@ pub fn run(file: &Path, name: Option<&str>, flags: &ImportFlags, common: &Common
 }
 
 /// The import's `source` record as lines: the RF variable and its axes, where
-/// each quantity came from, what was assumed.
+/// each quantity came from, the transmits fitted to the file's delays, what was
+/// assumed.
 fn provenance(source: &serde_json::Value) -> String {
     let mut out = String::new();
     if let Some(rf) = source.get("rf") {
@@ -98,6 +99,26 @@ fn provenance(source: &serde_json::Value) -> String {
             .map(|(k, v)| format!("{k} ← {}", v.as_str().unwrap_or("?")))
             .collect();
         out += &format!("  from: {}\n", from.join("; "));
+    }
+    let fits = source["transmit_fit"]["transmits"].as_array();
+    for t in fits.into_iter().flatten() {
+        let mm = |k: &str| {
+            let p = |i: usize| t[k][i].as_f64().unwrap_or(f64::NAN) * 1e3;
+            format!("({:.3}, {:.3}) mm", p(0), p(1))
+        };
+        let wave = match t["kind"].as_str().unwrap_or("?") {
+            "diverging" => format!("diverging, virtual source {}", mm("virtual_source_m")),
+            "focused" => format!("focused, focus {}", mm("focus_m")),
+            kind => format!(
+                "{kind}, angle {:.3}°",
+                t["angle_rad"].as_f64().unwrap_or(f64::NAN).to_degrees()
+            ),
+        };
+        out += &format!(
+            "  transmit {}: {wave} (fitted to the delays, largest residual {:.2e} samples)\n",
+            t["transmit"],
+            t["max_residual_samples"].as_f64().unwrap_or(f64::NAN)
+        );
     }
     for a in source
         .get("assumed")

@@ -11,7 +11,11 @@
 //!   top-level variables, under any of their usual spellings (`fs`,
 //!   `sampling_frequency`, `TXangle`, `angles_deg`, …); the RF is the largest real
 //!   numeric array, its axes matched to samples × elements × transmits (×
-//!   frames) in any order by the counts the parameters give.
+//!   frames) in any order by the counts the parameters give. A file's
+//!   per-element transmit delays (PyMUST's `param.TXdelay`) that are not plane
+//!   waves at known angles give each transmit's wave — plane, diverging or
+//!   focused — by a fit on the true element positions (`delays`, `wave_fit`);
+//!   a finite `radius` (PyMUST's `param.radius`) makes the array convex.
 //!
 //! What the file lacks is either supplied by [`ImportOptions`] (the CLI's flags,
 //! which override the file), assumed with a stated reason (element width = pitch,
@@ -20,15 +24,19 @@
 //! output's `source`, which variable gave each quantity and what was assumed.
 
 mod axes;
+mod delays;
 mod fmc;
 mod plane_wave;
 mod quantities;
+mod record;
 mod samples;
+mod wave_fit;
 
 use std::path::Path;
 
 pub use axes::Axis;
 
+use crate::array::ArrayKind;
 use crate::channels::ChannelData;
 use crate::error::{Result, SignalError};
 use crate::mat::read_mat;
@@ -185,7 +193,12 @@ pub fn import_mat(path: impl AsRef<Path>) -> Result<ChannelData> {
 /// passes the array centre `(L/2)·|sin θ|/c` later (`L` the aperture), so each
 /// transmit's `t0_s = t0 − (L/2)·|sin θ|/c`. A file's per-element transmit delays,
 /// when present and linear in the element position, give that centre-crossing
-/// time instead (their value at `x = 0`).
+/// time instead (their value at `x = 0`). Delays that are not linear, or come
+/// without angles, or fire a convex array, are fitted transmit by transmit: the
+/// plane, diverging or focused wave whose delay law `τ_e` (CONTRACT §1) gives
+/// `d_e = a + τ_e` within 0.1 sample, `t0_s = t0 − a` (the fit and its
+/// residual are recorded in `source.transmit_fit`; no fit is an error naming
+/// the transmit).
 ///
 /// Full-matrix capture (`synaptus`): `fs` (MHz), `MWB` (µs, time of sample 0
 /// after the excitation), `cp` (m/s), `nTotElem`, optional `fc` (Hz); the sum
@@ -203,6 +216,38 @@ pub fn import_mat_with(path: impl AsRef<Path>, options: &ImportOptions) -> Resul
         return fmc::import(path, &vars, options);
     }
     plane_wave::import(path, &vars, options)
+}
+
+/// The largest pitch, in wavelengths at the centre frequency, of a flat array
+/// imported as `phased` (P4-2v: 0.53).
+pub const PHASED_PITCH_WAVELENGTHS: f64 = 0.6;
+
+/// CONTRACT §2's `probe.kind` of `kind`.
+pub(crate) fn kind_name(kind: ArrayKind) -> &'static str {
+    match kind {
+        ArrayKind::Linear => "linear",
+        ArrayKind::Phased => "phased",
+        ArrayKind::Convex => "convex",
+    }
+}
+
+/// The kind of a flat array of pitch `pitch_m` at sound speed `c` and centre
+/// frequency `fc`: `phased` when the pitch is at most
+/// [`PHASED_PITCH_WAVELENGTHS`] wavelengths (phased arrays are built near λ/2
+/// to steer without grating lobes; a file does not say which it is), with the
+/// note recording that; else `linear`.
+pub(crate) fn flat_kind(pitch_m: f64, c: f64, fc: f64) -> (ArrayKind, Option<String>) {
+    let limit_m = PHASED_PITCH_WAVELENGTHS * c / fc;
+    if pitch_m <= limit_m {
+        let note = format!(
+            "a flat array of pitch {:.3} mm, at most {PHASED_PITCH_WAVELENGTHS} wavelengths ({:.3} mm at fc): recorded as a phased array (sector image)",
+            pitch_m * 1e3,
+            limit_m * 1e3
+        );
+        (ArrayKind::Phased, Some(note))
+    } else {
+        (ArrayKind::Linear, None)
+    }
 }
 
 /// `data` if it passes [`ChannelData::validate`] (every field in its physical

@@ -27,6 +27,8 @@ pub(super) enum Quantity {
     TransmitDelays,
     /// Fractional bandwidth, %.
     Bandwidth,
+    /// Radius of curvature of a convex array, m (`Inf`: flat).
+    Radius,
 }
 
 /// The unit an angle variable's name states (`TXangle_deg`, `angles_rad`).
@@ -103,6 +105,7 @@ impl Quantity {
                 "delays",
             ],
             Quantity::Bandwidth => &["bandwidth", "bw", "fractionalbandwidth"],
+            Quantity::Radius => &["radius", "radiusofcurvature", "curvatureradius"],
         }
     }
 
@@ -119,6 +122,7 @@ impl Quantity {
             Quantity::StartTime => "time of sample 0 (s)",
             Quantity::TransmitDelays => "transmit delays",
             Quantity::Bandwidth => "fractional bandwidth (%)",
+            Quantity::Radius => "radius of curvature (m)",
         }
     }
 

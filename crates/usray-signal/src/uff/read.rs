@@ -5,15 +5,17 @@ use std::path::Path;
 
 use hdf5::{Group, LocationType};
 
+use super::curvilinear::{clock_shift_s, frame_shift_m, shifted, ustb_element};
 use super::{
     limits, CHANNEL_DATA_CLASS, GEOMETRY_ROWS, GEOMETRY_TOLERANCE_PITCHES, WAVEFRONT_PLANE,
     WAVEFRONT_SPHERICAL,
 };
+use crate::array::{ArrayGeometry, ArrayKind, RADIUS_KEY};
 use crate::channels::{
     ChannelData, ChannelMeta, ProbeMeta, TransmitMeta, CHANNELS_FORMAT, FRAME_KEY,
 };
 use crate::h5::{element_count, read_f64, string_attr, R};
-use crate::import::ImportOptions;
+use crate::import::{flat_kind, kind_name, ImportOptions};
 use crate::transmit::{TransmitWave, FOCUS_KEY, VIRTUAL_SOURCE_KEY};
 
 pub(super) fn read_channel_data(path: &Path, options: &ImportOptions) -> R<ChannelData> {
@@ -43,21 +45,56 @@ pub(super) fn read_channel_data(path: &Path, options: &ImportOptions) -> R<Chann
             required(&pulse, "center_frequency", &format!("{at}/pulse"))?
         }
     };
-    let same_delay = waves.iter().all(|w| w.delay_s == waves[0].delay_s);
-    let t0_s = if same_delay {
-        initial_time + waves[0].delay_s
-    } else {
-        initial_time
+    // A curvilinear array: sources and clocks from USTB's frame (apex at the
+    // origin) into usray's (chord at z = 0), `curvilinear`.
+    let pitch_m = options.pitch_m.unwrap_or(probe.pitch_m);
+    let array = ArrayGeometry {
+        kind: if probe.radius_m.is_some() {
+            ArrayKind::Convex
+        } else {
+            ArrayKind::Linear
+        },
+        n_elements: probe.n_elements,
+        pitch_m,
+        element_width_m: probe.element_width_m,
+        radius_m: probe.radius_m.unwrap_or(f64::INFINITY),
     };
+    let shift_m = frame_shift_m(&array);
+    let waves: Vec<(TransmitWave<f64>, f64)> = waves
+        .iter()
+        .map(|w| {
+            if shift_m == 0.0 {
+                (w.wave, initial_time + w.delay_s)
+            } else {
+                let wave = shifted(w.wave, shift_m);
+                (
+                    wave,
+                    initial_time + w.delay_s + clock_shift_s(&wave, shift_m, c),
+                )
+            }
+        })
+        .collect();
+    if let Some((i, _)) = waves
+        .iter()
+        .enumerate()
+        .find(|(_, (w, _))| matches!(w, TransmitWave::Diverging { source_m } if source_m[1] >= 0.0))
+    {
+        return Err(format!(
+            "`{at}/sequence` wave {}: its source lies behind USTB's origin but not behind the chord through the end elements (usray's z = 0), so it is neither a virtual source behind the array nor a focus in front of it",
+            i + 1
+        ));
+    }
+    let same_delay = waves.iter().all(|w| w.1 == waves[0].1);
+    let t0_s = if same_delay { waves[0].1 } else { initial_time };
     let tagged = n_frames.is_some();
     let transmits = (0..n_frames.unwrap_or(1))
         .flat_map(|frame| {
-            waves.iter().map(move |w| {
+            waves.iter().map(move |&(wave, t0_k)| {
                 let mut extra = serde_json::Map::new();
                 if tagged {
                     extra.insert(FRAME_KEY.into(), frame.into());
                 }
-                let (kind, angle_rad) = match w.wave {
+                let (kind, angle_rad) = match wave {
                     TransmitWave::PlaneWave { angle_rad } => ("plane_wave", angle_rad),
                     TransmitWave::Diverging { source_m } => {
                         extra.insert(VIRTUAL_SOURCE_KEY.into(), source_m.to_vec().into());
@@ -71,19 +108,28 @@ pub(super) fn read_channel_data(path: &Path, options: &ImportOptions) -> R<Chann
                 TransmitMeta {
                     kind: kind.into(),
                     angle_rad,
-                    t0_s: (!same_delay).then_some(initial_time + w.delay_s),
+                    t0_s: (!same_delay).then_some(t0_k),
                     extra,
                 }
             })
         })
         .collect();
+    let (kind, kind_note) = match probe.radius_m {
+        Some(_) => (ArrayKind::Convex, None),
+        None => flat_kind(pitch_m, c, fc),
+    };
     let mut extra = serde_json::Map::new();
     extra.insert(
         "source".into(),
         serde_json::json!({
             "file": path.file_name().map(|f| f.to_string_lossy().into_owned()),
-            "layout": format!("UFF {CHANNEL_DATA_CLASS} `{at}` (RF, plane or spherical waves, linear array)"),
-            "clock": "t0 = initial_time + sequence(n).delay (USTB: t = 0 when the wave passes the origin, the array centre)",
+            "layout": format!("UFF {CHANNEL_DATA_CLASS} `{at}` (RF, plane or spherical waves, {} array)", if shift_m == 0.0 { "linear" } else { "curvilinear" }),
+            "clock": if shift_m == 0.0 {
+                "t0 = initial_time + sequence(n).delay (USTB: t = 0 when the wave passes the origin, the array centre)".to_string()
+            } else {
+                format!("t0 = initial_time + sequence(n).delay + t_n((0, s)): USTB's origin is the arc's apex, usray's the chord through the end elements, s = R − h = {shift_m:e} m below it; sources moved by s in depth")
+            },
+            "assumed": kind_note.into_iter().collect::<Vec<_>>(),
             "overrides": options.overrides(),
         }),
     );
@@ -95,11 +141,15 @@ pub(super) fn read_channel_data(path: &Path, options: &ImportOptions) -> R<Chann
             sound_speed_m_s: c,
             center_frequency_hz: fc,
             probe: ProbeMeta {
-                kind: "linear".into(),
+                kind: kind_name(kind).into(),
                 n_elements: probe.n_elements,
-                pitch_m: options.pitch_m.unwrap_or(probe.pitch_m),
+                pitch_m,
                 element_width_m: probe.element_width_m,
-                extra: serde_json::Map::new(),
+                extra: probe
+                    .radius_m
+                    .map(|r| (RADIUS_KEY.to_string(), r.into()))
+                    .into_iter()
+                    .collect(),
             },
             transmits,
             extra,
@@ -183,22 +233,33 @@ fn object(g: &Group, name: &str, at: &str) -> R<Group> {
     }
 }
 
-/// The linear array of a UFF probe.
-struct LinearArray {
+/// The array of a UFF probe: linear, or curvilinear (`radius_m`).
+struct UffArray {
     n_elements: usize,
     pitch_m: f64,
     element_width_m: f64,
+    radius_m: Option<f64>,
 }
 
-fn read_probe(cd: &Group, at: &str) -> R<LinearArray> {
+fn read_probe(cd: &Group, at: &str) -> R<UffArray> {
     let probe = object(cd, "probe", at)?;
     let at = format!("{at}/probe");
     let class = string_attr(&probe, "class").unwrap_or_default();
-    if !matches!(class.as_str(), "uff.linear_array" | "uff.probe") {
+    let curvilinear = class == "uff.curvilinear_array";
+    if !(curvilinear || matches!(class.as_str(), "uff.linear_array" | "uff.probe")) {
         return Err(format!(
-            "`{at}` is a {class:?}; only linear arrays (uff.linear_array, or uff.probe with a linear geometry) are supported"
+            "`{at}` is a {class:?}; only linear arrays (uff.linear_array, or uff.probe with a linear geometry) and curvilinear ones (uff.curvilinear_array) are supported"
         ));
     }
+    let radius_m = if curvilinear {
+        let r = required(&probe, "radius", &at)?;
+        if !(r.is_finite() && r > 0.0) {
+            return Err(format!("`{at}/radius` = {r} is not a radius of curvature"));
+        }
+        Some(r)
+    } else {
+        None
+    };
     let geometry = match probe.dataset("geometry") {
         Ok(ds) => {
             let what = format!("`{at}/geometry`");
@@ -253,14 +314,63 @@ fn read_probe(cd: &Group, at: &str) -> R<LinearArray> {
         (None, Some(w)) => w[0],
         (None, None) => pitch,
     };
-    if let Some(g) = &geometry {
-        check_linear(g, n, pitch, &at)?;
+    match (&geometry, radius_m) {
+        (Some(g), None) => check_linear(g, n, pitch, &at)?,
+        (Some(g), Some(r)) => check_curvilinear(g, n, pitch, width, r, &at)?,
+        (None, _) => {}
     }
-    Ok(LinearArray {
+    Ok(UffArray {
         n_elements: n,
         pitch_m: pitch,
         element_width_m: width,
+        radius_m,
     })
+}
+
+/// The elements of `geometry` (`[7, n]`, C order) lie where USTB's
+/// `uff.curvilinear_array` of radius `r` and this pitch puts them
+/// ([`super::curvilinear`]: apex at the origin), facing outwards.
+fn check_curvilinear(
+    geometry: &[f64],
+    n: usize,
+    pitch: f64,
+    width: f64,
+    r: f64,
+    at: &str,
+) -> R<()> {
+    let array = ArrayGeometry {
+        kind: ArrayKind::Convex,
+        n_elements: n,
+        pitch_m: pitch,
+        element_width_m: width,
+        radius_m: r,
+    };
+    if r < (n - 1) as f64 * pitch / 2.0 {
+        return Err(format!(
+            "`{at}/radius` = {r} m is below half the aperture ((N − 1)·pitch/2): the arc cannot hold the elements"
+        ));
+    }
+    let tol = GEOMETRY_TOLERANCE_PITCHES * pitch.abs();
+    for i in 0..n {
+        let v = |row: usize| geometry[row * n + i];
+        let (x, z, azimuth) = ustb_element(&array, i);
+        if (v(0) - x).abs() > tol
+            || v(1).abs() > tol
+            || (v(2) - z).abs() > tol
+            || (v(3) - azimuth).abs() > tol / r
+            || v(4) != 0.0
+        {
+            return Err(format!(
+                "`{at}/geometry`: element {} lies at (x, y, z) = ({:e}, {:e}, {:e}) m facing azimuth {} rad, not at ({x:e}, 0, {z:e}) m facing {azimuth} rad where a curvilinear array of radius {r:e} m and pitch {pitch:e} m puts it (USTB: apex at the origin)",
+                i + 1,
+                v(0),
+                v(1),
+                v(2),
+                v(3)
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The elements of `geometry` (`[7, n]`, C order) lie on `z = 0`, facing `z`,

@@ -1,11 +1,15 @@
-//! Writing CONTRACT §2 channel data as a UFF `uff.channel_data` (plane waves on
-//! a flat array; the parent module's documentation states the layout).
+//! Writing CONTRACT §2 channel data as a UFF `uff.channel_data` (plane,
+//! diverging and focused waves on a flat or convex array; the parent module's
+//! documentation states the layout).
 
 use hdf5::types::VarLenUnicode;
 use hdf5::Group;
 
-use super::{CHANNEL_DATA_CLASS, GEOMETRY_ROWS, WAVEFRONT_PLANE};
+use super::curvilinear::{clock_shift_s, frame_shift_m, shifted, ustb_element};
+use super::{CHANNEL_DATA_CLASS, GEOMETRY_ROWS, WAVEFRONT_PLANE, WAVEFRONT_SPHERICAL};
+use crate::array::ArrayGeometry;
 use crate::channels::{ChannelData, ChannelMeta, FRAME_KEY};
+use crate::transmit::TransmitWave;
 
 /// How channel data fill UFF's `[time, channel, wave, frame]`.
 pub(super) struct FrameGrid {
@@ -15,26 +19,11 @@ pub(super) struct FrameGrid {
     waves: usize,
 }
 
-/// The frame grid of `meta`: without `frame` tags one frame of every transmit;
-/// with them, frames `0, 1, …` in order, each repeating frame 0's angles and
-/// times of sample 0.
+/// The frame grid of `meta` (validated): without `frame` tags one frame of
+/// every transmit; with them, frames `0, 1, …` in order, each repeating frame
+/// 0's waves and times of sample 0.
 pub(super) fn frame_grid(meta: &ChannelMeta) -> Result<FrameGrid, String> {
-    // Only what this writer can say: a flat array (a phased one is written as
-    // the linear array it is geometrically) and plane waves.
-    if meta.probe.kind == "convex" {
-        return Err("`probe.kind` is \"convex\": the UFF writer holds linear arrays only".into());
-    }
-    if let Some((i, t)) = meta
-        .transmits
-        .iter()
-        .enumerate()
-        .find(|(_, t)| t.kind != "plane_wave")
-    {
-        return Err(format!(
-            "transmits[{i}].kind is {:?}: the UFF writer holds plane waves only",
-            t.kind
-        ));
-    }
+    let wave = |i: usize| TransmitWave::from_meta(i, &meta.transmits[i]);
     let n = meta.transmits.len();
     if !meta
         .transmits
@@ -50,10 +39,10 @@ pub(super) fn frame_grid(meta: &ChannelMeta) -> Result<FrameGrid, String> {
     let waves = groups[0].len();
     for (k, g) in groups.iter().enumerate() {
         let contiguous = g.len() == waves && g.iter().enumerate().all(|(w, &i)| i == k * waves + w);
-        let same = g.iter().enumerate().all(|(w, &i)| {
-            meta.transmits[i].angle_rad == meta.transmits[w].angle_rad
-                && meta.t0_for(i) == meta.t0_for(w)
-        });
+        let same = g
+            .iter()
+            .enumerate()
+            .all(|(w, &i)| wave(i).ok() == wave(w).ok() && meta.t0_for(i) == meta.t0_for(w));
         if !(contiguous && same) {
             return Err(format!(
                 "frame {k} (transmits {g:?}) does not repeat frame 0's {waves} transmits in order: UFF holds one wave sequence for every frame"
@@ -79,7 +68,15 @@ pub(super) fn write_channel_data(
     new_number(&cd, "modulation_frequency", 0.0)?;
 
     let p = &m.probe;
-    let probe = new_object(&cd, "probe", "uff.linear_array")?;
+    let array = ArrayGeometry::from_meta(p).map_err(hdf5::Error::from)?;
+    let shift_m = frame_shift_m(&array);
+    let probe = if array.kind.is_flat() {
+        new_object(&cd, "probe", "uff.linear_array")?
+    } else {
+        let probe = new_object(&cd, "probe", "uff.curvilinear_array")?;
+        new_number(&probe, "radius", array.radius_m)?;
+        probe
+    };
     new_number(&probe, "N", p.n_elements as f64)?;
     new_number(&probe, "pitch", p.pitch_m)?;
     new_number(&probe, "element_width", p.element_width_m)?;
@@ -94,7 +91,14 @@ pub(super) fn write_channel_data(
     let n = p.n_elements;
     let mut geometry = vec![0.0; GEOMETRY_ROWS * n];
     for i in 0..n {
-        geometry[i] = (i as f64 - (n - 1) as f64 / 2.0) * p.pitch_m;
+        if array.kind.is_flat() {
+            geometry[i] = (i as f64 - (n - 1) as f64 / 2.0) * p.pitch_m;
+        } else {
+            let (x, z, azimuth) = ustb_element(&array, i);
+            geometry[i] = x;
+            geometry[2 * n + i] = z;
+            geometry[3 * n + i] = azimuth;
+        }
         geometry[5 * n + i] = p.element_width_m;
         geometry[6 * n + i] = height;
     }
@@ -104,15 +108,30 @@ pub(super) fn write_channel_data(
     let pulse = new_object(&cd, "pulse", "uff.pulse")?;
     new_number(&pulse, "center_frequency", m.center_frequency_hz)?;
 
+    // Each wave in USTB's frame (`super::curvilinear`): its source moved up
+    // by the frame shift, its clock started as it passes USTB's origin.
     let wave = |parent: &Group, name: &str, tx: usize| -> hdf5::Result<()> {
+        let tw = TransmitWave::from_meta(tx, &m.transmits[tx]).map_err(hdf5::Error::from)?;
         let w = new_object(parent, name, "uff.wave")?;
+        let (wavefront, distance, azimuth) = match shifted(tw, -shift_m) {
+            TransmitWave::PlaneWave { angle_rad } => (WAVEFRONT_PLANE, f64::INFINITY, angle_rad),
+            TransmitWave::Diverging { source_m: [x, z] }
+            | TransmitWave::Focused { focus_m: [x, z] } => {
+                (WAVEFRONT_SPHERICAL, x.hypot(z), x.atan2(z))
+            }
+        };
         let ds = w.new_dataset::<i32>().shape([1, 1]).create("wavefront")?;
-        ds.write_raw(&[WAVEFRONT_PLANE as i32])?;
+        ds.write_raw(&[wavefront as i32])?;
         set_string(&ds, "class", "uff.wavefront")?;
         set_string(&ds, "name", "wavefront")?;
-        new_point(&w, "source", f64::INFINITY, m.transmits[tx].angle_rad)?;
+        new_point(&w, "source", distance, azimuth)?;
         new_point(&w, "origin", 0.0, 0.0)?;
-        new_number(&w, "delay", m.t0_for(tx) - m.t0_s)?;
+        let delay = if shift_m == 0.0 {
+            m.t0_for(tx) - m.t0_s
+        } else {
+            m.t0_for(tx) - clock_shift_s(&tw, shift_m, m.sound_speed_m_s) - m.t0_s
+        };
+        new_number(&w, "delay", delay)?;
         new_number(&w, "sound_speed", m.sound_speed_m_s)
     };
     if grid.waves == 1 {

@@ -1,6 +1,7 @@
 //! Shared helpers of the crate's tests.
 #![allow(dead_code)]
 
+pub mod probes;
 pub mod pymust;
 
 use usray_signal::{post, BMode, ChannelData, ChannelMeta, Complex64, ImagingSettings};
@@ -115,18 +116,26 @@ pub fn int16(name: &str, dims: &[i32], vals: &[i16]) -> Vec<u8> {
 }
 /// A 1×1 struct of `fields`.
 pub fn structure(name: &str, fields: &[(&str, Vec<u8>)]) -> Vec<u8> {
+    let names: Vec<&str> = fields.iter().map(|(f, _)| *f).collect();
+    let values: Vec<Vec<u8>> = fields.iter().map(|(_, v)| v.clone()).collect();
+    struct_array(name, &names, &[values])
+}
+/// A 1×n struct array with fields `names`, `elems[i]` element i's values.
+pub fn struct_array(name: &str, names: &[&str], elems: &[Vec<Vec<u8>>]) -> Vec<u8> {
     let mut body = tag(5, &32i32.to_le_bytes());
-    let mut names = vec![];
-    for (f, _) in fields {
+    let mut packed = vec![];
+    for f in names {
         let mut b = f.as_bytes().to_vec();
         b.resize(32, 0);
-        names.extend(b);
+        packed.extend(b);
     }
-    body.extend(tag(1, &names));
-    for (_, v) in fields {
-        body.extend(v.clone());
+    body.extend(tag(1, &packed));
+    for e in elems {
+        for v in e {
+            body.extend(v.clone());
+        }
     }
-    matrix(name, 2, &[1, 1], body)
+    matrix(name, 2, &[1, elems.len() as i32], body)
 }
 /// A MAT v5 file of `vars`.
 pub fn mat_file(vars: &[Vec<u8>]) -> Vec<u8> {
