@@ -222,7 +222,7 @@ impl Scene {
         }
         let probe = |field| get(ParamKey::probe(field));
         let (center_frequency, cycles) = (probe(Field::CenterFrequency), probe(Field::Cycles));
-        let array = self.array_geometry_t(|key| get(key));
+        let array = self.array_geometry_t(get);
         Ok(SceneT {
             medium: material(&ParamKey::medium, false),
             objects,
@@ -237,7 +237,7 @@ impl Scene {
             max_shift: crate::downshift::max_shift(center_frequency.value(), cycles.value()),
             main_lobe: probe(Field::MainLobe) * deg,
             cutoff: probe(Field::Cutoff) * deg,
-            transmits: self.transmit_waves_t(|key| get(key)),
+            transmits: self.transmit_waves_t(get),
             fs: self.acquisition.sampling_frequency_hz,
             depth_gain_db_per_cm: get(ParamKey::acquisition(Field::DepthGain)),
             imaging_sound_speed: match self.imaging.sound_speed_m_s {
