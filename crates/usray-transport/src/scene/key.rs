@@ -11,8 +11,8 @@
 //! lists them: its spelling, whether it is an array, its learning-rate group
 //! ([`ParamGroup`]), its default range ([`RangeRule`]) and the part of the
 //! image formation that also reads it ([`ImagingRole`]). Adding a parameter is
-//! a row there and an arm of `slot!` (where its value lives in [`Scene`]),
-//! plus the physics that reads it ([`Scene::lift`]).
+//! a row there and an arm of `slot!` in `scene/slots.rs` (where its value
+//! lives in [`Scene`]), plus the physics that reads it ([`Scene::lift`]).
 
 use super::Scene;
 use std::fmt;
@@ -225,7 +225,7 @@ pub enum ImagingRole {
 
 /// How a row's parameter reaches the image formation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Imaging {
+pub enum ImagingUse {
     /// Not at all.
     No,
     /// Always, in this role.
@@ -251,7 +251,7 @@ pub struct Declaration {
     /// Default range.
     pub range: RangeRule,
     /// Role in the image formation.
-    pub imaging: Imaging,
+    pub imaging: ImagingUse,
 }
 
 const fn row(
@@ -261,7 +261,7 @@ const fn row(
     array: bool,
     group: ParamGroup,
     range: RangeRule,
-    imaging: Imaging,
+    imaging: ImagingUse,
 ) -> Declaration {
     Declaration {
         section,
@@ -275,7 +275,7 @@ const fn row(
 }
 
 use Field as F;
-use Imaging::{Always, No, UnlessImagingSoundSpeed};
+use ImagingUse::{Always, No, UnlessImagingSoundSpeed};
 use ParamGroup::{Acquisition as Acq, Geometry as Geo, Material as Mat};
 use RangeRule as R;
 use Section as S;
@@ -446,16 +446,30 @@ impl ParamKey {
     }
 }
 
+/// How each section's paths begin (the longer prefix first: a transmit's
+/// paths also begin with `acquisition.`).
+const SECTION_PREFIXES: [(&str, Section); 7] = [
+    ("medium.", S::Medium),
+    ("probe.", S::Probe),
+    ("acquisition.transmits.", S::Transmit),
+    ("acquisition.", S::Acquisition),
+    ("imaging.", S::Imaging),
+    ("materials.", S::Material),
+    ("objects.", S::Object),
+];
+
 impl fmt::Display for ParamKey {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let section = self.owner.section();
+        let prefix = SECTION_PREFIXES
+            .iter()
+            .find(|(_, s)| *s == section)
+            .map_or("", |(p, _)| p);
+        write!(f, "{prefix}")?;
         match &self.owner {
-            Owner::Medium => write!(f, "medium.")?,
-            Owner::Probe => write!(f, "probe.")?,
-            Owner::Acquisition => write!(f, "acquisition.")?,
-            Owner::Transmit(i) => write!(f, "acquisition.transmits.{i}.")?,
-            Owner::Imaging => write!(f, "imaging.")?,
-            Owner::Material(name) => write!(f, "materials.{name}.")?,
-            Owner::Object(name) => write!(f, "objects.{name}.")?,
+            Owner::Transmit(i) => write!(f, "{i}.")?,
+            Owner::Material(name) | Owner::Object(name) => write!(f, "{name}.")?,
+            _ => {}
         }
         match self.declaration() {
             Some(d) => write!(f, "{}", d.spelling)?,
@@ -495,18 +509,10 @@ impl FromStr for ParamKey {
     /// [`Scene::key`]'s check.
     fn from_str(text: &str) -> Result<Self, UnknownKey> {
         let unknown = || UnknownKey(text.to_string());
-        let (section, rest) = [
-            ("medium.", S::Medium),
-            ("probe.", S::Probe),
-            ("acquisition.transmits.", S::Transmit),
-            ("acquisition.", S::Acquisition),
-            ("imaging.", S::Imaging),
-            ("materials.", S::Material),
-            ("objects.", S::Object),
-        ]
-        .into_iter()
-        .find_map(|(prefix, s)| text.strip_prefix(prefix).map(|rest| (s, rest)))
-        .ok_or_else(unknown)?;
+        let (section, rest) = SECTION_PREFIXES
+            .iter()
+            .find_map(|&(prefix, s)| text.strip_prefix(prefix).map(|rest| (s, rest)))
+            .ok_or_else(unknown)?;
         // `rest` is `[OWNER.]SPELLING[.COMPONENT]`.
         let (head, last) = rest.rsplit_once('.').unwrap_or(("", rest));
         let (body, component) = match last.parse::<usize>() {
@@ -545,159 +551,5 @@ impl FromStr for ParamKey {
             return Err(unknown());
         }
         Ok(key)
-    }
-}
-
-/// Where a key's value lives in a scene: `Some(place)` when the scene has the
-/// parameter. Expanded once for `&` and once for `&mut` (`Scene::slot`,
-/// `Scene::slot_mut`), so reading and writing share one map.
-macro_rules! slot {
-    ($s:expr, $key:expr, $as_:ident, $get:ident, $iter:ident $(, $m:ident)?) => {{
-        let key = $key;
-        let c = key.component;
-        // Component `c` of an array (`None` when out of range).
-        macro_rules! at {
-            ($xs:expr) => {
-                match c {
-                    Some(i) => $xs.$get(i),
-                    None => None,
-                }
-            };
-        }
-        match (&key.owner, key.field) {
-            (Owner::Medium, F::SoundSpeed) => Some(&$($m)? $s.medium.sound_speed_m_s),
-            (Owner::Medium, F::Impedance) => Some(&$($m)? $s.medium.impedance_mrayl),
-            (Owner::Medium, F::Attenuation) => Some(&$($m)? $s.medium.attenuation_db_cm_mhz),
-            (Owner::Probe, F::Pitch) => Some(&$($m)? $s.probe.pitch_m),
-            (Owner::Probe, F::ElementWidth) => Some(&$($m)? $s.probe.element_width_m),
-            (Owner::Probe, F::CenterFrequency) => Some(&$($m)? $s.probe.center_frequency_hz),
-            (Owner::Probe, F::Cycles) => Some(&$($m)? $s.probe.cycles),
-            (Owner::Probe, F::MainLobe) => Some(&$($m)? $s.probe.main_lobe_deg),
-            (Owner::Probe, F::Cutoff) => Some(&$($m)? $s.probe.cutoff_deg),
-            (Owner::Probe, F::Elevation) => Some(&$($m)? $s.probe.elevation_m),
-            (Owner::Probe, F::Radius) => $s.probe.radius_m.$as_(),
-            (Owner::Acquisition, F::Angles) => at!($s.acquisition.angles_deg),
-            (Owner::Acquisition, F::SamplingFrequency) => {
-                Some(&$($m)? $s.acquisition.sampling_frequency_hz)
-            }
-            (Owner::Acquisition, F::MaxDepth) => Some(&$($m)? $s.acquisition.max_depth_m),
-            (Owner::Acquisition, F::DepthGain) => Some(&$($m)? $s.acquisition.depth_gain_db_per_cm),
-            (Owner::Transmit(i), field) => match $s.acquisition.transmits.$get(*i) {
-                None => None,
-                Some(t) => match (field, &$($m)? t.virtual_source_m, &$($m)? t.focus_m) {
-                    (F::Angle, _, _) => t.angle_deg.$as_(),
-                    (F::VirtualSource, Some(p), _) | (F::Focus, _, Some(p)) => at!(p),
-                    _ => None,
-                },
-            },
-            (Owner::Imaging, F::XRange) => at!($s.imaging.x_range_m),
-            (Owner::Imaging, F::ZRange) => at!($s.imaging.z_range_m),
-            (Owner::Imaging, F::Pixel) => Some(&$($m)? $s.imaging.pixel_m),
-            (Owner::Imaging, F::FNumber) => Some(&$($m)? $s.imaging.f_number),
-            (Owner::Imaging, F::DynamicRange) => Some(&$($m)? $s.imaging.dynamic_range_db),
-            (Owner::Imaging, F::SoundSpeed) => $s.imaging.sound_speed_m_s.$as_(),
-            (Owner::Material(name), field) => match $s.materials.$get(name.as_str()) {
-                None => None,
-                Some(m) => match field {
-                    F::Impedance => Some(&$($m)? m.impedance_mrayl),
-                    F::SoundSpeed => Some(&$($m)? m.sound_speed_m_s),
-                    F::Roughness => Some(&$($m)? m.roughness),
-                    F::Attenuation => Some(&$($m)? m.attenuation_db_cm_mhz),
-                    F::ScattererDensity => Some(&$($m)? m.scatterer_density_per_mm3),
-                    F::ScattererStrength => Some(&$($m)? m.scatterer_strength),
-                    _ => None,
-                },
-            },
-            (Owner::Object(name), field) => match $s.objects.$iter().find(|o| &o.name == name) {
-                None => None,
-                Some(o) => match field {
-                    F::Center => at!(o.center_m),
-                    F::Radius => o.radius_m.$as_(),
-                    F::Thickness => o.thickness_m.$as_(),
-                    F::ZTop => o.z_top_m.$as_(),
-                    F::ZBottom => o.z_bottom_m.$as_(),
-                    F::Normal => match &$($m)? o.normal {
-                        Some(n) => at!(n),
-                        None => None,
-                    },
-                    F::Rotation => match &$($m)? o.rotation_deg {
-                        Some(r) => at!(r),
-                        None => None,
-                    },
-                    F::Scale => o.scale.$as_(),
-                    _ => None,
-                },
-            },
-            _ => None,
-        }
-        .filter(|_| key.declaration().is_some_and(|d| d.array == c.is_some()))
-    }};
-}
-
-impl Scene {
-    /// The value of `key`, if the scene has that parameter.
-    pub(crate) fn slot(&self, key: &ParamKey) -> Option<&f64> {
-        slot!(self, key, as_ref, get, iter)
-    }
-
-    /// The place of `key`'s value, if the scene has that parameter.
-    pub(crate) fn slot_mut(&mut self, key: &ParamKey) -> Option<&mut f64> {
-        slot!(self, key, as_mut, get_mut, iter_mut, mut)
-    }
-
-    /// Every parameter's key, in [`PARAMETERS`]' order for each owner: the
-    /// medium, the probe, the acquisition (its transmits in order), the
-    /// imaging, the materials by name, the objects in file order.
-    pub fn param_keys(&self) -> Vec<ParamKey> {
-        let mut out = Vec::new();
-        let mut rows = PARAMETERS;
-        while let Some(first) = rows.first() {
-            // A run of rows of one section, visited for each owner of it.
-            let n = rows
-                .iter()
-                .position(|d| d.section != first.section)
-                .unwrap_or(rows.len());
-            let (run, rest) = rows.split_at(n);
-            rows = rest;
-            let owners: Vec<Owner> = match first.section {
-                S::Medium => vec![Owner::Medium],
-                S::Probe => vec![Owner::Probe],
-                S::Acquisition => vec![Owner::Acquisition],
-                S::Imaging => vec![Owner::Imaging],
-                S::Transmit => (0..self.acquisition.transmits.len())
-                    .map(Owner::Transmit)
-                    .collect(),
-                S::Material => self
-                    .materials
-                    .keys()
-                    .cloned()
-                    .map(Owner::Material)
-                    .collect(),
-                S::Object => self
-                    .objects
-                    .iter()
-                    .map(|o| Owner::Object(o.name.clone()))
-                    .collect(),
-            };
-            for owner in owners {
-                for d in run {
-                    let key = ParamKey::new(owner.clone(), d.field);
-                    if !d.array {
-                        if self.slot(&key).is_some() {
-                            out.push(key);
-                        }
-                        continue;
-                    }
-                    for i in 0.. {
-                        let key = key.clone().at(i);
-                        if self.slot(&key).is_none() {
-                            break;
-                        }
-                        out.push(key);
-                    }
-                }
-            }
-        }
-        out
     }
 }

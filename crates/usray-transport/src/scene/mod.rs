@@ -13,6 +13,7 @@ pub mod key;
 mod lift;
 pub mod params;
 mod schema;
+mod slots;
 
 pub use key::{Field, ImagingRole, Owner, ParamGroup, ParamKey};
 pub use lift::{MaterialT, ObjectT, SceneT};
