@@ -84,3 +84,35 @@ fn kinds_carry_their_group_and_default_range() {
         ParamKey::material("a.b", Field::Roughness)
     );
 }
+
+/// A refused step leaves the scene as it was, bit for bit: values set before
+/// the bad one, a wall projected under its radius and a key given twice are
+/// all put back.
+#[test]
+fn a_refused_step_leaves_the_scene_unchanged() {
+    let s = Scene::load(scene_path("ring.toml")).unwrap();
+    let wall = s.key("objects.tube.thickness_m").unwrap();
+    let radius = s.key("objects.tube.radius_m").unwrap();
+    let pitch = s.key("probe.pitch_m").unwrap();
+    let r = s.get(&radius).unwrap();
+    let mut t = s.clone();
+    let e = t
+        .set_projected(&[(&wall, 1.5 * r), (&pitch, 0.5e-3), (&pitch, -1.0)])
+        .unwrap_err();
+    assert_eq!(e.key, "probe.pitch_m", "{e}");
+    assert_eq!(t, s);
+    let nope = ParamKey::object("nope", Field::Radius);
+    let e = t
+        .set_projected(&[(&wall, 1.5 * r), (&nope, 1.0)])
+        .unwrap_err();
+    assert_eq!(e.key, "objects.nope.radius_m", "{e}");
+    assert_eq!(t, s);
+    // Accepted, the wall is projected and the last value of a key wins.
+    t.set_projected(&[(&wall, 1.5 * r), (&pitch, 0.4e-3), (&pitch, 0.5e-3)])
+        .unwrap();
+    assert_eq!(t.get(&pitch).unwrap(), 0.5e-3);
+    assert_eq!(
+        t.get(&wall).unwrap(),
+        usray_transport::scene::params::MAX_WALL_FRACTION * r
+    );
+}
