@@ -7,7 +7,12 @@ use usray::optim::{
     fd_sweep, fit, fit_journaled, log_steps, Comparison, FdChannels, FitOptions, FitResult,
     Journal, Objective, ParamSpec, TransportGradient,
 };
-use usray::transport::{RenderOptions, Scene};
+use usray::transport::{ParamKey, RenderOptions, Scene};
+
+/// The key of a dotted parameter path (the tests name parameters by path).
+fn key(path: &str) -> ParamKey {
+    path.parse().unwrap()
+}
 
 mod common;
 
@@ -50,13 +55,13 @@ fn exp1_objective(transport: Option<Box<dyn TransportGradient>>) -> (Objective, 
     let reference = reference_of(&truth, &o);
     let mut start = truth.clone();
     for (p, f) in EXP1.iter().zip([1.04, 0.9, 1.3, 1.02, 0.97]) {
-        start.set(p, truth.get(p).unwrap() * f).unwrap();
+        start.set(&key(p), truth.get(&key(p)).unwrap() * f).unwrap();
     }
     let specs: Vec<ParamSpec> = EXP1
         .iter()
-        .map(|p| ParamSpec::parse(p, start.get(p).unwrap()).unwrap())
+        .map(|p| ParamSpec::parse(p, &start).unwrap())
         .collect();
-    let at: Vec<f64> = EXP1.iter().map(|p| start.get(p).unwrap()).collect();
+    let at: Vec<f64> = EXP1.iter().map(|p| start.get(&key(p)).unwrap()).collect();
     let obj = match transport {
         None => Objective::new(start, reference, specs, o).unwrap(),
         Some(t) => Objective::with_transport(start, reference, specs, o, t).unwrap(),
@@ -82,7 +87,7 @@ fn check(obj: &Objective, at: &[f64], g: &[f64], loss: f64) -> Vec<(String, f64,
                 .unwrap();
             let moves = best.fd.abs() > 1e3 * f64::EPSILON * loss / best.eps;
             (
-                s.path.clone(),
+                s.key.to_string(),
                 g[j],
                 best.fd,
                 (best.fd - g[j]).abs() / g[j].abs(),
@@ -142,10 +147,12 @@ fn transmit_micro_batches_sum_to_the_full_gradient() {
     let o = opts(40);
     let reference = reference_of(&truth, &o);
     let mut start = truth.clone();
-    start.set("objects.cylinder.radius_m", 0.0052).unwrap();
+    start
+        .set(&key("objects.cylinder.radius_m"), 0.0052)
+        .unwrap();
     let specs = vec![
-        ParamSpec::parse("objects.cylinder.radius_m", 0.0052).unwrap(),
-        ParamSpec::parse("materials.target.roughness", 0.3).unwrap(),
+        ParamSpec::parse("objects.cylinder.radius_m", &start).unwrap(),
+        ParamSpec::parse("materials.target.roughness", &start).unwrap(),
     ];
     let at = [0.0052, 0.3];
     let mut obj = Objective::new(start, reference, specs, o).unwrap();
@@ -171,7 +178,7 @@ fn experiment2_fit(truth: &Scene, impedance_factor: f64, iters: usize) -> (FitRe
         "materials.target.impedance_mrayl",
         "materials.target.roughness",
     ];
-    let true_v: Vec<f64> = paths.iter().map(|p| truth.get(p).unwrap()).collect();
+    let true_v: Vec<f64> = paths.iter().map(|p| truth.get(&key(p)).unwrap()).collect();
     let start_v: Vec<f64> = true_v
         .iter()
         .zip([1.1, impedance_factor, 2.0])
@@ -180,8 +187,8 @@ fn experiment2_fit(truth: &Scene, impedance_factor: f64, iters: usize) -> (FitRe
     let mut start = truth.clone();
     let mut specs = Vec::new();
     for (p, v) in paths.iter().zip(&start_v) {
-        start.set(p, *v).unwrap();
-        specs.push(ParamSpec::parse(p, *v).unwrap());
+        start.set(&key(p), *v).unwrap();
+        specs.push(ParamSpec::parse(p, &start).unwrap());
     }
     let mut obj = Objective::new(start, reference, specs, o).unwrap();
     let r = fit(
@@ -299,17 +306,19 @@ fn compared_loss_gradient_matches_central_fd() {
 #[test]
 fn paired_loss_removes_the_roughness_bias_of_the_one_render_loss() {
     let truth = small_scene();
-    let r_true = truth.get("materials.target.roughness").unwrap();
+    let r_true = truth.get(&key("materials.target.roughness")).unwrap();
     let mut start = truth.clone();
-    start.set("materials.target.roughness", 0.2).unwrap();
-    start.set("materials.target.impedance_mrayl", 1.8).unwrap();
+    start.set(&key("materials.target.roughness"), 0.2).unwrap();
+    start
+        .set(&key("materials.target.impedance_mrayl"), 1.8)
+        .unwrap();
     let specs: Vec<ParamSpec> = [
         "materials.target.roughness",
         "materials.target.impedance_mrayl",
         "objects.cylinder.radius_m",
     ]
     .iter()
-    .map(|p| ParamSpec::parse(p, start.get(p).unwrap()).unwrap())
+    .map(|p| ParamSpec::parse(p, &start).unwrap())
     .collect();
     let fit_opts = FitOptions {
         iters: 30,
@@ -427,14 +436,14 @@ fn a_fit_resumed_from_its_checkpoint_gives_the_same_bits() {
     let o = opts(8);
     let reference = reference_of(&truth, &o);
     let path = "objects.cylinder.radius_m";
-    let start_v = truth.get(path).unwrap() * 1.08;
+    let start_v = truth.get(&key(path)).unwrap() * 1.08;
     let mut start = truth.clone();
-    start.set(path, start_v).unwrap();
+    start.set(&key(path), start_v).unwrap();
     let objective = || {
         Objective::new(
             start.clone(),
             reference.clone(),
-            vec![ParamSpec::parse(path, start_v).unwrap()],
+            vec![ParamSpec::parse(path, &start).unwrap()],
             o.clone(),
         )
         .unwrap()
@@ -523,11 +532,11 @@ fn convex_radius_is_recovered_from_its_bmode() {
     let o = RenderOptions::default();
     let reference = reference_of(&truth, &o);
     let path = "probe.radius_m";
-    let true_r = truth.get(path).unwrap();
+    let true_r = truth.get(&key(path)).unwrap();
     let start_r = 0.85 * true_r;
     let mut start = truth.clone();
-    start.set(path, start_r).unwrap();
-    let specs = vec![ParamSpec::parse(&format!("{path}=0.025:0.06"), start_r).unwrap()];
+    start.set(&key(path), start_r).unwrap();
+    let specs = vec![ParamSpec::parse(&format!("{path}=0.025:0.06"), &start).unwrap()];
     let mut obj = Objective::new(start, reference, specs, o).unwrap();
     let r = fit(
         &mut obj,

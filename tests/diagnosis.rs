@@ -13,7 +13,13 @@ use usray::optim::{
     catalogue, default_free_params, diagnose, parameter_candidates, score_candidate, Candidate,
     DiagnoseOptions, Diagnosis, Journal, LossSetup, Objective,
 };
-use usray::transport::{RenderOptions, Scene};
+use usray::transport::scene::Owner;
+use usray::transport::{ParamKey, RenderOptions, Scene};
+
+/// The key of a dotted parameter path (the tests name parameters by path).
+fn key(path: &str) -> ParamKey {
+    path.parse().unwrap()
+}
 
 mod common;
 
@@ -130,16 +136,12 @@ fn every_candidate_at_its_null_renders_the_base_model() {
         assert_eq!(
             at_null, 0,
             "{} ({} = {null}): {at_null} samples differ from the base model",
-            c.effect, c.path
+            c.effect, c.key
         );
         // The control: a tenth of the range away from the null, it does differ.
         let away = null + 0.1 * (c.range.1 - c.range.0);
         let switched = differing_samples(&c.switched_on(&base, away).unwrap());
-        assert!(
-            switched > 0,
-            "{} = {away} renders as the base model",
-            c.path
-        );
+        assert!(switched > 0, "{} = {away} renders as the base model", c.key);
     }
 }
 
@@ -187,7 +189,7 @@ fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
     // The paper's point: the base model's radius is biased by the wall it
     // lacks; once the wall is added, the bias shrinks (measured: +0.80% →
     // −0.09%).
-    let r_true = base.get("objects.cylinder.radius_m").unwrap();
+    let r_true = base.get(&key("objects.cylinder.radius_m")).unwrap();
     let r_cal = r.calibrated.params["objects.cylinder.radius_m"];
     let r_after = radius_after.expect("the wall_thickness refit reports the radius");
     assert!(
@@ -304,7 +306,7 @@ fn no_effect_names_no_false_effect() {
         diagnose(&base, &measured, &d, |_| {}).unwrap()
     };
     let roughness = |d: &Diagnosis| d.calibrated.params["materials.target.roughness"];
-    let truth = base.get("materials.target.roughness").unwrap();
+    let truth = base.get(&key("materials.target.roughness")).unwrap();
     eprintln!(
         "paired: verdict {}; held-out {:.3e}, noise {:.3e}; roughness {:.3} (one render {:.3}, true {truth})",
         paired.verdict.effect,
@@ -461,11 +463,11 @@ fn attenuation_inside_the_object_is_scored_inside_its_basin() {
         })
         .collect();
     for (c, score, start) in &scores {
-        eprintln!("{}: score {score:.3}, refit from {start:.3}", c.path);
+        eprintln!("{}: score {score:.3}, refit from {start:.3}", c.key);
     }
     let inside = scores
         .iter()
-        .find(|(c, ..)| c.path.starts_with("materials."))
+        .find(|(c, ..)| matches!(c.key.owner, Owner::Material(_)))
         .unwrap();
     let (_, score, start) = inside;
     assert!(
@@ -477,8 +479,8 @@ fn attenuation_inside_the_object_is_scored_inside_its_basin() {
         "refit would start at {start} for {alpha}"
     );
     // It outscores the depth gain and the background's attenuation.
-    for (c, other, _) in scores.iter().filter(|(c, ..)| c.path != inside.0.path) {
-        assert!(score > other, "{} scores {other} ≥ {score}", c.path);
+    for (c, other, _) in scores.iter().filter(|(c, ..)| c.key != inside.0.key) {
+        assert!(score > other, "{} scores {other} ≥ {score}", c.key);
     }
 }
 
@@ -498,7 +500,8 @@ fn a_gain_down_with_depth_images_as_attenuation() {
     let alpha = 0.5;
     let g = -2.0 * alpha * base.probe.center_frequency_hz / 1e6;
     let mut gain = base.clone();
-    gain.set("acquisition.depth_gain_db_per_cm", g).unwrap();
+    gain.set(&key("acquisition.depth_gain_db_per_cm"), g)
+        .unwrap();
     let mut attenuation = base.clone();
     attenuation.medium.attenuation_db_cm_mhz = alpha;
     for m in attenuation.materials.values_mut() {

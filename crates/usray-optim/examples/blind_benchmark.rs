@@ -158,7 +158,10 @@ fn main() {
         if right {
             if let Some(e) = r.effects.iter().find(|e| e.effect == r.verdict.effect) {
                 for (p, found) in &e.params {
-                    let (Ok(truth), Some(Some(std))) = (d.scene.get(p), e.params_std.get(p)) else {
+                    let (Ok(truth), Some(Some(std))) = (
+                        d.scene.key(p).and_then(|k| d.scene.get(&k)),
+                        e.params_std.get(p),
+                    ) else {
                         continue;
                     };
                     let z = (found - truth) / std;

@@ -40,12 +40,17 @@ fn objective(n: usize, rays: Option<usize>) -> (Objective, Vec<f64>) {
     let helper = Objective::new(truth.clone(), vec![0.0; nz * nx], vec![], opts.clone()).unwrap();
     let reference = helper.value(&[]).unwrap().image.data;
     let mut start = truth.clone();
-    start.set("objects.cylinder.radius_m", 0.0055).unwrap();
+    start
+        .set(&"objects.cylinder.radius_m".parse().unwrap(), 0.0055)
+        .unwrap();
     let specs: Vec<ParamSpec> = P16[..n]
         .iter()
-        .map(|p| ParamSpec::parse(p, start.get(p).unwrap()).unwrap())
+        .map(|p| ParamSpec::parse(p, &start).unwrap())
         .collect();
-    let at = P16[..n].iter().map(|p| start.get(p).unwrap()).collect();
+    let at = P16[..n]
+        .iter()
+        .map(|p| start.get(&p.parse().unwrap()).unwrap())
+        .collect();
     (Objective::new(start, reference, specs, opts).unwrap(), at)
 }
 

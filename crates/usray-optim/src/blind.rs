@@ -42,7 +42,7 @@
 use crate::OptimError;
 use usray_signal::BMode;
 use usray_transport::scene::ShapeKind;
-use usray_transport::{render, RenderOptions, Scene};
+use usray_transport::{render, Field, ParamKey, RenderOptions, Scene};
 
 /// The kinds a draw can take, in draw order.
 pub const KINDS: [&str; 8] = [
@@ -171,10 +171,10 @@ pub fn draw(base: &Scene, i: usize, opts: &BlindOptions) -> Result<Draw, OptimEr
                 .ok_or_else(|| refused("the base scene has no object"))?;
             let s = 0.17 + 0.34 * u;
             scene.set(
-                &format!("materials.{m}.scatterer_density_per_mm3"),
+                &ParamKey::material(&m, Field::ScattererDensity),
                 crate::diagnosis::SCATTERER_DENSITY_PER_MM3,
             )?;
-            scene.set(&format!("materials.{m}.scatterer_strength"), s)?;
+            scene.set(&ParamKey::material(&m, Field::ScattererStrength), s)?;
             s
         }
         "sound_speed" => {

@@ -69,7 +69,8 @@ pub fn log_steps(largest: f64, ratio: f64, n: usize) -> Vec<f64> {
 ///
 /// ```
 /// use usray_optim::{sweep_steps, ParamSpec};
-/// let spec = ParamSpec { path: "objects.c.radius_m".into(), min: 1e-3, max: 3e-3 };
+/// use usray_transport::{Field, ParamKey};
+/// let spec = ParamSpec { key: ParamKey::object("c", Field::Radius), min: 1e-3, max: 3e-3 };
 /// let steps = sweep_steps(&spec);
 /// assert_eq!(steps.len(), 8);
 /// assert!((steps[0] - 2e-5).abs() < 1e-20 && (steps[7] - 2e-12).abs() < 1e-24);
@@ -116,7 +117,7 @@ pub fn fd_sweeps(
         );
         if let Some(e) = err {
             return Err(OptimError::FiniteDifference {
-                path: spec.path.clone(),
+                key: spec.key.clone(),
                 source: Box::new(e),
             });
         }

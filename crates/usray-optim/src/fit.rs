@@ -8,58 +8,15 @@ use crate::objective::Objective;
 use crate::params::ParamMap;
 use crate::OptimError;
 use std::time::Instant;
+use usray_transport::scene::ParamGroup;
+use usray_transport::ParamKey;
 
-/// The learning-rate group of a parameter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum ParamGroup {
-    /// Material and effect strengths: impedance, roughness, wall thickness,
-    /// scatterer density/strength, attenuation.
-    Material,
-    /// Object geometry: radius, centre, mesh transform (rotation, scale), plane normal,
-    /// slab faces.
-    Geometry,
-    /// Acquisition and imaging: pitch, element width, frequency, cycles, sound
-    /// speeds (medium, material, beamformer), depth gain, angles, everything else.
-    Acquisition,
-}
-
-impl ParamGroup {
-    /// The group of a dotted parameter path, by its kind (the last non-index part).
-    ///
-    /// ```
-    /// use usray_optim::ParamGroup;
-    /// assert_eq!(ParamGroup::of("materials.target.roughness"), ParamGroup::Material);
-    /// assert_eq!(ParamGroup::of("objects.cylinder.center_m.2"), ParamGroup::Geometry);
-    /// assert_eq!(ParamGroup::of("probe.pitch_m"), ParamGroup::Acquisition);
-    /// ```
-    pub fn of(path: &str) -> ParamGroup {
-        let leaf = path
-            .rsplit('.')
-            .find(|s| s.parse::<usize>().is_err())
-            .unwrap_or(path);
-        match leaf {
-            "impedance_mrayl"
-            | "roughness"
-            | "thickness_m"
-            | "scatterer_density_per_mm3"
-            | "scatterer_strength"
-            | "attenuation_db_cm_mhz" => ParamGroup::Material,
-            "radius_m" | "center_m" | "rotation_deg" | "scale" | "normal" | "z_top_m"
-            | "z_bottom_m"
-                if path.starts_with("objects.") =>
-            {
-                ParamGroup::Geometry
-            }
-            _ => ParamGroup::Acquisition,
-        }
-    }
-
-    fn index(self) -> usize {
-        match self {
-            ParamGroup::Material => 0,
-            ParamGroup::Geometry => 1,
-            ParamGroup::Acquisition => 2,
-        }
+/// Index of a group's learning rate in the fit's list of base rates.
+fn group_index(group: ParamGroup) -> usize {
+    match group {
+        ParamGroup::Material => 0,
+        ParamGroup::Geometry => 1,
+        ParamGroup::Acquisition => 2,
     }
 }
 
@@ -87,11 +44,11 @@ pub struct FitOptions {
     /// Draw fresh random numbers every iteration (seed + k) instead of common random
     /// numbers; the gradient is then stochastic (paper: "unless explicitly stated").
     pub resample_seed: bool,
-    /// Learning rates of single parameters, by path, overriding their group's
+    /// Learning rates of single parameters, overriding their group's
     /// (each such parameter gets a group of its own; default none). The
     /// diagnosis gives an effect's strength, which may lie anywhere in its range,
     /// a faster rate than the calibrated parameters it refits with.
-    pub lr_overrides: Vec<(String, f64)>,
+    pub lr_overrides: Vec<(ParamKey, f64)>,
 }
 
 impl Default for FitOptions {
@@ -201,12 +158,12 @@ pub fn fit_journaled(
         .specs
         .iter()
         .map(
-            |s| match opts.lr_overrides.iter().find(|(p, _)| *p == s.path) {
+            |s| match opts.lr_overrides.iter().find(|(p, _)| *p == s.key) {
                 Some((_, lr)) => {
                     base_lr.push(*lr);
                     base_lr.len() - 1
                 }
-                None => ParamGroup::of(&s.path).index(),
+                None => group_index(s.key.group()),
             },
         )
         .collect();

@@ -11,7 +11,8 @@
 //! // Recover a "radius" r from a 4-pixel "image" that depends on it smoothly.
 //! let render = |r: f64| -> Vec<f64> { (0..4).map(|u| (-(u as f64 - r * 1e3).powi(2)).exp()).collect() };
 //! let reference = render(2.0e-3);
-//! let map = ParamMap::new(vec![ParamSpec::parse("objects.c.radius_m=0.001:0.003", 0.0).unwrap()]);
+//! let key = usray_transport::ParamKey::object("c", usray_transport::Field::Radius);
+//! let map = ParamMap::new(vec![ParamSpec { key, min: 0.001, max: 0.003 }]);
 //! let mut state = map.state_from_physical(&[1.6e-3]);
 //! let mut adam = Adam::new(vec![AdamGroup { learning_rate: 0.02, ..Default::default() }], vec![0]);
 //! let loss = L1L2::default();
@@ -57,7 +58,7 @@ pub use diagnosis::{
     NullRefit, Report, Score, Timings, Verdict, VerdictRule,
 };
 pub use fd::{best_fd, fd_sweep, fd_sweeps, log_steps, sweep_steps, FdPoint};
-pub use fit::{fit, fit_journaled, FitOptions, FitResult, FitStep, ParamGroup};
+pub use fit::{fit, fit_journaled, FitOptions, FitResult, FitStep};
 pub use journal::Journal;
 pub use loss::L1L2;
 pub use mirror::impedance_mirror;
@@ -68,6 +69,7 @@ pub use objective::{
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
 pub use reference::{load_reference, load_reference_frames};
 pub use spread::{linearised_spread, parameter_spread};
+pub use usray_transport::scene::ParamGroup;
 
 /// An error of the calibration layer, with a one-line message.
 #[derive(Debug, thiserror::Error)]
@@ -91,10 +93,10 @@ pub enum OptimError {
     #[error("diagnosis: {0}")]
     Diagnosis(String),
     /// A finite-difference sweep ([`fd_sweeps`]) hit a failing render.
-    #[error("finite differences of {path}")]
+    #[error("finite differences of {key}")]
     FiniteDifference {
         /// The parameter being swept.
-        path: String,
+        key: usray_transport::ParamKey,
         /// Why its render failed.
         #[source]
         source: Box<OptimError>,

@@ -10,9 +10,10 @@
 //! started on the wrong side of `Z₁` ended at 1.1926 MRayl for 1.99, the mirror
 //! to 0.07% (`docs/performance.md`, "Samplers").
 
-use usray_transport::Scene;
+use usray_transport::scene::Owner;
+use usray_transport::{Field, ParamKey, Scene};
 
-/// The mirror `Z₁²/Z` (MRayl) of `value` when `path` is a material's impedance
+/// The mirror `Z₁²/Z` (MRayl) of `value` when `key` is a material's impedance
 /// (`materials.NAME.impedance_mrayl`), against the scene's background medium
 /// `Z₁ = medium.impedance_mrayl`; `None` for any other parameter or a
 /// non-positive value.
@@ -21,18 +22,21 @@ use usray_transport::Scene;
 /// # use usray_transport::Scene;
 /// # let scene = Scene::from_toml_str(include_str!("../../../scenes/cylinder.toml"), "c.toml", ".").unwrap();
 /// use usray_optim::impedance_mirror;
+/// use usray_transport::{Field, ParamKey};
 /// // Water's 1.54 MRayl around a 1.99 MRayl wall: R = +0.127; the mirror reflects −0.127.
-/// let m = impedance_mirror(&scene, "materials.target.impedance_mrayl", 1.99).unwrap();
+/// let z = ParamKey::material("target", Field::Impedance);
+/// let m = impedance_mirror(&scene, &z, 1.99).unwrap();
 /// assert!((m - 1.54 * 1.54 / 1.99).abs() < 1e-12);
 /// let r = |z: f64| (z - 1.54) / (z + 1.54);
 /// assert!((r(m) + r(1.99)).abs() < 1e-12);
-/// assert!(impedance_mirror(&scene, "objects.cylinder.radius_m", 0.005).is_none());
+/// let radius = ParamKey::object("cylinder", Field::Radius);
+/// assert!(impedance_mirror(&scene, &radius, 0.005).is_none());
 /// ```
-pub fn impedance_mirror(scene: &Scene, path: &str, value: f64) -> Option<f64> {
-    let material = path
-        .strip_prefix("materials.")?
-        .strip_suffix(".impedance_mrayl")?;
+pub fn impedance_mirror(scene: &Scene, key: &ParamKey, value: f64) -> Option<f64> {
+    let (Owner::Material(material), Field::Impedance) = (&key.owner, key.field) else {
+        return None;
+    };
     let background = scene.medium.impedance_mrayl;
-    (scene.materials.contains_key(material) && value > 0.0 && background > 0.0)
+    (scene.materials.contains_key(material.as_str()) && value > 0.0 && background > 0.0)
         .then(|| background * background / value)
 }

@@ -42,18 +42,19 @@ use crate::loss::L1L2;
 use crate::params::ParamSpec;
 use crate::OptimError;
 use usray_signal::{BMode, ChannelData, Image};
-use usray_transport::{render, RenderOptions, Scene, SceneError};
+use usray_transport::scene::ImagingRole;
+use usray_transport::{render, ParamKey, RenderOptions, Scene, SceneError};
 
 /// The transport part of the gradient: for each named parameter,
 /// `Σ_samples d_channels · ∂P/∂θ_j` of the fixed-seed render of `scene` under `opts`.
 ///
 /// Parameters only the image formation reads contribute 0 here.
 pub trait TransportGradient: Send + Sync {
-    /// `∂L/∂θ_j = Σ d_channels · ∂P/∂θ_j` for each path in `params`.
+    /// `∂L/∂θ_j = Σ d_channels · ∂P/∂θ_j` for each parameter in `params`.
     fn channel_gradient(
         &self,
         scene: &Scene,
-        params: &[&str],
+        params: &[ParamKey],
         d_channels: &[f64],
         opts: &RenderOptions,
     ) -> Result<Vec<f64>, SceneError>;
@@ -70,7 +71,7 @@ impl TransportGradient for PathReplay {
     fn channel_gradient(
         &self,
         scene: &Scene,
-        params: &[&str],
+        params: &[ParamKey],
         d_channels: &[f64],
         opts: &RenderOptions,
     ) -> Result<Vec<f64>, SceneError> {
@@ -88,7 +89,7 @@ impl TransportGradient for FdChannels {
     fn channel_gradient(
         &self,
         scene: &Scene,
-        params: &[&str],
+        params: &[ParamKey],
         d_channels: &[f64],
         opts: &RenderOptions,
     ) -> Result<Vec<f64>, SceneError> {
@@ -147,15 +148,6 @@ pub struct Evaluation {
     pub render_seconds: f64,
 }
 
-/// Which part of the image formation a parameter also enters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum ImagingRole {
-    None,
-    SoundSpeed,
-    Pitch,
-    CenterFrequency,
-}
-
 /// Scene + reference image + parameters + loss + render options: the function the
 /// fit minimises (see the module docs for the chain rule).
 pub struct Objective {
@@ -182,7 +174,8 @@ pub struct Objective {
     /// the renders). `None` (the default): the paper's loss on one render.
     pub paired_seed: Option<u64>,
     transport: Box<dyn TransportGradient>,
-    roles: Vec<ImagingRole>,
+    /// The part of the image formation each parameter also enters.
+    roles: Vec<Option<ImagingRole>>,
 }
 
 impl std::fmt::Debug for Objective {
@@ -221,7 +214,7 @@ impl Objective {
     ) -> Result<Self, OptimError> {
         opts.check(&scene)?;
         for s in &specs {
-            scene.get(&s.path)?;
+            scene.get(&s.key)?;
         }
         let (nz, nx) = grid_shape(&scene)?;
         if reference.len() != nz * nx {
@@ -231,17 +224,7 @@ impl Objective {
                 nz * nx
             )));
         }
-        let has_imaging_c = scene.imaging.sound_speed_m_s.is_some();
-        let roles = specs
-            .iter()
-            .map(|s| match s.path.as_str() {
-                "imaging.sound_speed_m_s" => ImagingRole::SoundSpeed,
-                "medium.sound_speed_m_s" if !has_imaging_c => ImagingRole::SoundSpeed,
-                "probe.pitch_m" => ImagingRole::Pitch,
-                "probe.center_frequency_hz" => ImagingRole::CenterFrequency,
-                _ => ImagingRole::None,
-            })
-            .collect();
+        let roles = specs.iter().map(|s| s.key.imaging_role(&scene)).collect();
         Ok(Self {
             scene,
             reference,
@@ -260,7 +243,7 @@ impl Objective {
     pub fn initial_physical(&self) -> Vec<f64> {
         self.specs
             .iter()
-            .map(|s| self.scene.get(&s.path).unwrap_or(f64::NAN))
+            .map(|s| self.scene.get(&s.key).unwrap_or(f64::NAN))
             .collect()
     }
 
@@ -272,11 +255,11 @@ impl Objective {
     /// The scene with the parameters set to `physical`.
     pub fn scene_at(&self, physical: &[f64]) -> Result<Scene, OptimError> {
         let mut scene = self.scene.clone();
-        let values: Vec<(&str, f64)> = self
+        let values: Vec<(&ParamKey, f64)> = self
             .specs
             .iter()
             .zip(physical)
-            .map(|(s, &v)| (s.path.as_str(), v))
+            .map(|(s, &v)| (&s.key, v))
             .collect();
         // Coupled bounds (a wall thinner than its radius) are projected: a step
         // of the optimiser that crosses one is not a fault of the user's scene.
@@ -501,8 +484,8 @@ impl Objective {
         d_image: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>), OptimError> {
         let d_channels = op.vjp(ws, d_image)?;
-        let paths: Vec<&str> = self.specs.iter().map(|s| s.path.as_str()).collect();
-        let mut gradient = vec![0.0; paths.len()];
+        let keys: Vec<ParamKey> = self.specs.iter().map(|s| s.key.clone()).collect();
+        let mut gradient = vec![0.0; keys.len()];
         let n_tx = ch.n_transmits();
         let per_tx = ch.n_elements() * ch.n_samples;
         let batches: Vec<Vec<usize>> = if self.transmit_batches.is_empty() {
@@ -529,7 +512,7 @@ impl Objective {
         for batch in &batches {
             let part = if batches.len() == 1 {
                 self.transport
-                    .channel_gradient(scene, &paths, &d_channels, opts)?
+                    .channel_gradient(scene, &keys, &d_channels, opts)?
             } else {
                 let mut masked = vec![0.0; d_channels.len()];
                 for &t in batch {
@@ -537,25 +520,25 @@ impl Objective {
                     masked[r.clone()].copy_from_slice(&d_channels[r]);
                 }
                 self.transport
-                    .channel_gradient(scene, &paths, &masked, opts)?
+                    .channel_gradient(scene, &keys, &masked, opts)?
             };
             for (g, p) in gradient.iter_mut().zip(part) {
                 *g += p;
             }
         }
-        let mut demod_fc_part = vec![0.0; paths.len()];
-        if self.roles.iter().any(|r| *r != ImagingRole::None) {
+        let mut demod_fc_part = vec![0.0; keys.len()];
+        if self.roles.iter().any(Option::is_some) {
             let cal = op.calibration_vjp(ws, d_image)?;
             for (j, role) in self.roles.iter().enumerate() {
                 match role {
-                    ImagingRole::SoundSpeed => gradient[j] += cal.d_sound_speed,
-                    ImagingRole::Pitch => gradient[j] += cal.d_pitch,
-                    ImagingRole::CenterFrequency => {
+                    Some(ImagingRole::SoundSpeed) => gradient[j] += cal.d_sound_speed,
+                    Some(ImagingRole::Pitch) => gradient[j] += cal.d_pitch,
+                    Some(ImagingRole::CenterFrequency) => {
                         let part = op.center_frequency_vjp(ch, ws, d_image)?;
                         demod_fc_part[j] = part;
                         gradient[j] += part;
                     }
-                    ImagingRole::None => {}
+                    None => {}
                 }
             }
         }

@@ -1,4 +1,4 @@
-//! Parameters to optimise: dotted scene paths with admissible ranges, and the
+//! Parameters to optimise: scene parameter keys with admissible ranges, and the
 //! paper's map from the optimiser's unconstrained state to physical values.
 //!
 //! Paper §"Parameterization and constraints": the optimiser holds `θ̃ ∈ ℝᵈ`;
@@ -8,6 +8,7 @@
 //! until the optimiser moves it back inside.
 
 use thiserror::Error;
+use usray_transport::{ParamKey, Scene, SceneError};
 
 /// An error in a `--params` specification.
 #[derive(Debug, Error, PartialEq)]
@@ -15,6 +16,15 @@ pub enum ParamSpecError {
     /// The text is not `PATH` or `PATH=MIN:MAX`.
     #[error("parameter `{0}`: expected PATH or PATH=MIN:MAX (e.g. objects.cylinder.radius_m=0.003:0.007)")]
     Syntax(String),
+    /// `PATH` is not a parameter of the scene.
+    #[error("`{path}` is not a parameter of the scene (see `usray params SCENE`)")]
+    Unknown {
+        /// The text given as the path.
+        path: String,
+        /// The scene's error.
+        #[source]
+        source: SceneError,
+    },
     /// A bound is not a finite number.
     #[error("parameter `{path}`: bound `{text}` is not a finite number")]
     Bound {
@@ -35,12 +45,12 @@ pub enum ParamSpecError {
     },
 }
 
-/// One optimised parameter: its dotted scene path and admissible range
-/// `[min, max]` in the parameter's own unit.
+/// One optimised parameter: its key and admissible range `[min, max]` in the
+/// parameter's own unit.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ParamSpec {
-    /// Dotted scene path (CONTRACT §3), e.g. `objects.cylinder.radius_m`.
-    pub path: String,
+    /// The scene parameter (printed as its dotted path, CONTRACT §3).
+    pub key: ParamKey,
     /// Lower bound `θ_min`.
     pub min: f64,
     /// Upper bound `θ_max`.
@@ -48,27 +58,32 @@ pub struct ParamSpec {
 }
 
 impl ParamSpec {
-    /// Parses `PATH=MIN:MAX`, or `PATH` alone with the documented default range for
-    /// that kind of parameter around its current `value` (see [`default_range`]).
+    /// Parses `PATH=MIN:MAX`, or `PATH` alone with the parameter's default range
+    /// around its value in `scene` ([`default_range`]). `PATH` must be a
+    /// parameter of `scene`.
     ///
     /// ```
+    /// # let scene = usray_transport::Scene::from_toml_str(include_str!("../../../scenes/cylinder.toml"), "c.toml", ".").unwrap();
     /// use usray_optim::ParamSpec;
-    /// let p = ParamSpec::parse("objects.cylinder.radius_m=0.003:0.007", 0.005).unwrap();
+    /// let p = ParamSpec::parse("objects.cylinder.radius_m=0.003:0.007", &scene).unwrap();
     /// assert_eq!((p.min, p.max), (0.003, 0.007));
-    /// let q = ParamSpec::parse("materials.target.roughness", 0.3).unwrap();
+    /// assert_eq!(p.key.to_string(), "objects.cylinder.radius_m");
+    /// let q = ParamSpec::parse("materials.target.roughness", &scene).unwrap();
     /// assert_eq!((q.min, q.max), (0.01, 1.0));
+    /// assert!(ParamSpec::parse("objects.nope.radius_m", &scene).is_err());
     /// ```
-    pub fn parse(text: &str, value: f64) -> Result<Self, ParamSpecError> {
+    pub fn parse(text: &str, scene: &Scene) -> Result<Self, ParamSpecError> {
         let text = text.trim();
         let (path, range) = match text.split_once('=') {
             Some((p, r)) => (p.trim(), Some(r)),
             None => (text, None),
         };
-        if path.is_empty() || path.contains(char::is_whitespace) {
-            return Err(ParamSpecError::Syntax(text.to_string()));
-        }
+        let key = scene.key(path).map_err(|source| ParamSpecError::Unknown {
+            path: path.to_string(),
+            source,
+        })?;
         let (min, max) = match range {
-            None => default_range(path, value),
+            None => default_range(&key, scene.get(&key).unwrap_or(f64::NAN)),
             Some(r) => {
                 let (a, b) = r
                     .split_once(':')
@@ -93,11 +108,13 @@ impl ParamSpec {
                 max,
             });
         }
-        Ok(Self {
-            path: path.to_string(),
-            min,
-            max,
-        })
+        Ok(Self { key, min, max })
+    }
+
+    /// `key` with its default range around `value` ([`default_range`]).
+    pub fn around(key: ParamKey, value: f64) -> Self {
+        let (min, max) = default_range(&key, value);
+        Self { key, min, max }
     }
 
     /// `θ = θ_min + θ_n (θ_max − θ_min)` (paper eq. scale_phys).
@@ -111,8 +128,9 @@ impl ParamSpec {
     }
 }
 
-/// The default admissible range of a parameter that was named without one, by the
-/// kind its path names (the last path component), around its current `value`.
+/// The default admissible range of a parameter that was named without one,
+/// around its current `value`: the rule its key declares
+/// (`usray_transport::scene::key::PARAMETERS`, [`usray_transport::scene::key::RangeRule`]).
 ///
 /// | kind | range |
 /// |---|---|
@@ -130,34 +148,12 @@ impl ParamSpec {
 /// | anything else | `[v − max(0.5·|v|, 1), v + max(0.5·|v|, 1)]` |
 ///
 /// ```
-/// assert_eq!(usray_optim::default_range("objects.c.radius_m", 0.005), (0.003, 0.007));
+/// use usray_transport::{Field, ParamKey};
+/// let radius = ParamKey::object("c", Field::Radius);
+/// assert_eq!(usray_optim::default_range(&radius, 0.005), (0.003, 0.007));
 /// ```
-pub fn default_range(path: &str, value: f64) -> (f64, f64) {
-    let leaf = path
-        .rsplit('.')
-        .find(|s| s.parse::<usize>().is_err())
-        .unwrap_or(path);
-    let v = value;
-    match leaf {
-        "roughness" => (0.01, 1.0),
-        "impedance_mrayl" => (0.5 * v, 2.0 * v),
-        "sound_speed_m_s" => (0.9 * v, 1.1 * v),
-        "pitch_m" | "element_width_m" | "center_frequency_hz" => (0.8 * v, 1.2 * v),
-        "cycles" => (0.5 * v, 2.0 * v),
-        "attenuation_db_cm_mhz" => (0.0, f64::max(2.0, 2.0 * v)),
-        "scatterer_density_per_mm3" => (0.0, f64::max(20.0, 2.0 * v)),
-        "scatterer_strength" => (0.0, f64::max(1.0, 2.0 * v)),
-        "depth_gain_db_per_cm" => (v - 3.0, v + 3.0),
-        "thickness_m" => (0.0, f64::max(5e-3, 2.0 * v)),
-        l if l.ends_with("_m") => {
-            let h = f64::max(0.3 * v.abs(), 2e-3);
-            (v - h, v + h)
-        }
-        _ => {
-            let h = f64::max(0.5 * v.abs(), 1.0);
-            (v - h, v + h)
-        }
-    }
+pub fn default_range(key: &ParamKey, value: f64) -> (f64, f64) {
+    key.default_range(value)
 }
 
 /// The optimiser's unconstrained state `θ̃` for a set of parameters, with the
@@ -198,7 +194,9 @@ impl ParamMap {
     ///
     /// ```
     /// use usray_optim::{ParamMap, ParamSpec};
-    /// let m = ParamMap::new(vec![ParamSpec { path: "a".into(), min: 1.0, max: 3.0 }]);
+    /// use usray_transport::{Field, ParamKey};
+    /// let key = ParamKey::probe(Field::Pitch);
+    /// let m = ParamMap::new(vec![ParamSpec { key, min: 1.0, max: 3.0 }]);
     /// assert_eq!(m.state_gradient(&[0.5], &[10.0]), vec![20.0]);
     /// assert_eq!(m.state_gradient(&[1.2], &[10.0]), vec![0.0]); // saturated: no gradient
     /// ```

@@ -1,6 +1,17 @@
 //! Tests of the optimisation building blocks against independent computations.
 
 use usray_optim::{fd_sweep, Adam, AdamGroup, ParamMap, ParamSpec, ParamSpecError, L1L2};
+use usray_transport::Scene;
+
+/// The shipped cylinder scene (parameter paths are checked against it).
+fn cylinder() -> Scene {
+    Scene::from_toml_str(
+        include_str!("../../../scenes/cylinder.toml"),
+        "cylinder.toml",
+        ".",
+    )
+    .unwrap()
+}
 
 /// Deterministic pseudo-random numbers for test data (SplitMix64).
 fn rand_vec(seed: u64, n: usize) -> Vec<f64> {
@@ -55,8 +66,8 @@ fn loss_is_zero_with_zero_gradient_at_a_perfect_match() {
 #[test]
 fn map_chain_rule_matches_finite_differences_inside_and_vanishes_outside() {
     let specs = vec![
-        ParamSpec::parse("objects.c.radius_m=0.003:0.007", 0.0).unwrap(),
-        ParamSpec::parse("materials.t.impedance_mrayl=1:3", 0.0).unwrap(),
+        ParamSpec::parse("objects.cylinder.radius_m=0.003:0.007", &cylinder()).unwrap(),
+        ParamSpec::parse("materials.target.impedance_mrayl=1:3", &cylinder()).unwrap(),
     ];
     let map = ParamMap::new(specs);
     // f(θ) = Σ w_j θ_j² with known ∂f/∂θ.
@@ -134,25 +145,32 @@ fn adam_minimises_a_badly_scaled_quadratic() {
 
 #[test]
 fn spec_errors_say_what_is_wrong() {
+    let s = cylinder();
     assert_eq!(
-        ParamSpec::parse("a=1", 0.0),
-        Err(ParamSpecError::Syntax("a=1".into()))
+        ParamSpec::parse("probe.cycles=1", &s),
+        Err(ParamSpecError::Syntax("probe.cycles=1".into()))
     );
     assert!(matches!(
-        ParamSpec::parse("a=x:2", 0.0),
+        ParamSpec::parse("probe.cycles=x:2", &s),
         Err(ParamSpecError::Bound { .. })
     ));
     assert!(matches!(
-        ParamSpec::parse("a=2:1", 0.0),
+        ParamSpec::parse("probe.cycles=2:1", &s),
         Err(ParamSpecError::EmptyRange { .. })
     ));
     assert!(matches!(
-        ParamSpec::parse("a=NaN:1", 0.0),
+        ParamSpec::parse("probe.cycles=NaN:1", &s),
         Err(ParamSpecError::Bound { .. })
     ));
-    let msg = ParamSpec::parse("a=2:1", 0.0).unwrap_err().to_string();
+    assert!(matches!(
+        ParamSpec::parse("a=1:2", &s),
+        Err(ParamSpecError::Unknown { .. })
+    ));
+    let msg = ParamSpec::parse("probe.cycles=2:1", &s)
+        .unwrap_err()
+        .to_string();
     assert!(
-        msg.contains("`a`") && msg.contains("MIN must be below MAX"),
+        msg.contains("`probe.cycles`") && msg.contains("MIN must be below MAX"),
         "{msg}"
     );
 }

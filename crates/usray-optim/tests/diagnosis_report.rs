@@ -12,7 +12,7 @@ use usray_transport::{RenderOptions, Scene};
 fn diagnosed() -> (Scene, Vec<f64>, Vec<Diagnosis>) {
     let scene = tiny_scene();
     let mut truth = scene.clone();
-    truth.set("probe.cycles", 5.0).unwrap();
+    truth.set(&"probe.cycles".parse().unwrap(), 5.0).unwrap();
     let render = RenderOptions {
         rays_per_element: Some(10),
         ..Default::default()

@@ -16,7 +16,9 @@ fn objective(specs: Vec<ParamSpec>) -> Objective {
     };
     let (nz, nx) = grid_shape(&scene).unwrap();
     let mut truth = scene.clone();
-    truth.set("objects.cylinder.radius_m", 4.6e-3).unwrap();
+    truth
+        .set(&"objects.cylinder.radius_m".parse().unwrap(), 4.6e-3)
+        .unwrap();
     let reference = Objective::new(truth, vec![0.0; nz * nx], vec![], render.clone())
         .unwrap()
         .value(&[])
@@ -32,7 +34,7 @@ fn objective(specs: Vec<ParamSpec>) -> Objective {
 #[test]
 fn sweeps_take_their_steps_and_agree_with_ad() {
     let spec = ParamSpec {
-        path: "materials.target.impedance_mrayl".into(),
+        key: "materials.target.impedance_mrayl".parse().unwrap(),
         min: 1.7,
         max: 2.5,
     };
@@ -60,7 +62,7 @@ fn sweeps_take_their_steps_and_agree_with_ad() {
 #[test]
 fn a_failing_step_names_the_parameter() {
     let spec = ParamSpec {
-        path: "objects.cylinder.radius_m".into(),
+        key: "objects.cylinder.radius_m".parse().unwrap(),
         min: 0.0,
         max: 0.01,
     };

@@ -51,12 +51,17 @@ fn objective(paired: bool) -> (Objective, Vec<f64>) {
     let helper = Objective::new(truth.clone(), vec![0.0; nz * nx], vec![], opts.clone()).unwrap();
     let reference = helper.value(&[]).unwrap().image.data;
     let mut start = truth;
-    start.set("objects.cylinder.radius_m", 0.0052).unwrap();
+    start
+        .set(&"objects.cylinder.radius_m".parse().unwrap(), 0.0052)
+        .unwrap();
     let specs: Vec<ParamSpec> = PARAMS
         .iter()
-        .map(|p| ParamSpec::parse(p, start.get(p).unwrap()).unwrap())
+        .map(|p| ParamSpec::parse(p, &start).unwrap())
         .collect();
-    let at = PARAMS.iter().map(|p| start.get(p).unwrap()).collect();
+    let at = PARAMS
+        .iter()
+        .map(|p| start.get(&p.parse().unwrap()).unwrap())
+        .collect();
     let obj = Objective::new(start, reference, specs, opts)
         .unwrap()
         .with_pairing(paired);

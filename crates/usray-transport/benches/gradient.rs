@@ -29,12 +29,13 @@ fn main() {
             .collect(),
     );
     println!("value (render): {value:.3} s");
+    let params = params();
     for n in [3, 16] {
         let g = median(
             (0..REPEATS)
                 .map(|_| {
                     let t = Instant::now();
-                    channel_gradient(&scene, &PARAMS[..n], &w, &opts).expect("gradient");
+                    channel_gradient(&scene, &params[..n], &w, &opts).expect("gradient");
                     t.elapsed().as_secs_f64()
                 })
                 .collect(),

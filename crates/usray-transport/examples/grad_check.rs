@@ -7,7 +7,7 @@ fn main() {
     let scene = Scene::load(&args[0]).unwrap();
     let rays: usize = args[1].parse().unwrap();
     let rel: f64 = args[2].parse().unwrap();
-    let params: Vec<&str> = args[3..].iter().map(String::as_str).collect();
+    let params: Vec<_> = args[3..].iter().map(|p| scene.key(p).unwrap()).collect();
     let opts = RenderOptions {
         rays_per_element: Some(rays),
         ..Default::default()
@@ -32,7 +32,7 @@ fn main() {
     let g = channel_gradient(&scene, &params, &w, &opts).unwrap();
     eprintln!("gradient in {:.2} s", t.elapsed().as_secs_f64());
     for (j, p) in params.iter().enumerate() {
-        let st = scene.lift_dual::<1>(&[p]).unwrap();
+        let st = scene.lift_dual::<1>(std::slice::from_ref(p)).unwrap();
         let (pd, _, _) = usray_transport::render_lifted(&scene, &st, &opts);
         let via_render: f64 = pd.iter().zip(&w).map(|(p, w)| p.eps[0] * w).sum();
         println!("{p}: dual render {via_render:.6e}");

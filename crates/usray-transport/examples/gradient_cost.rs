@@ -2,7 +2,7 @@
 //!
 //! `gradient_cost value SCENE RAYS` renders once; `gradient_cost grad SCENE RAYS P`
 //! renders and takes the gradient of `L = Σ w·P` for the first `P` parameters of
-//! [`PARAMS`]. Prints seconds. Run under `/usr/bin/time -v` for the peak RSS:
+//! [`PATHS`]. Prints seconds. Run under `/usr/bin/time -v` for the peak RSS:
 //! ```text
 //! /usr/bin/time -v target/release/examples/gradient_cost grad scenes/cylinder.toml 20 3
 //! /usr/bin/time -v target/release/examples/gradient_cost grad scenes/cylinder.toml 200 3
@@ -44,13 +44,14 @@ fn main() {
     let t = Instant::now();
     // `grad_fwd`: the same parameters in forward passes of 8 (two calls below
     // the reverse-mode threshold) for the crossover measurement.
+    let params = params();
     let g = if a[0] == "grad_fwd" {
-        PARAMS[..p]
+        params[..p]
             .chunks(8)
             .flat_map(|c| channel_gradient(&scene, c, &w, &opts).expect("gradient"))
             .collect()
     } else {
-        channel_gradient(&scene, &PARAMS[..p], &w, &opts).expect("gradient")
+        channel_gradient(&scene, &params[..p], &w, &opts).expect("gradient")
     };
     let tg = t.elapsed().as_secs_f64();
     println!(

@@ -55,7 +55,7 @@
 use crate::integrator::{Deposit, Horizon, TraceSettings};
 use crate::plan::{AcquisitionPlan, SampleGrid};
 use crate::render::{element_blocks, in_pool, settings, trace_block_within, RenderOptions};
-use crate::scene::{Scene, SceneError, SceneT};
+use crate::scene::{Field, Owner, ParamKey, Scene, SceneError, SceneT};
 use rayon::prelude::*;
 use usray_ad::{Dual, Real, Recording, Var};
 
@@ -64,31 +64,30 @@ use usray_ad::{Dual, Real, Recording, Var};
 /// `docs/performance.md`, section *usray-transport*.
 pub const REVERSE_MIN_PARAMS: usize = 12;
 
-const FC: &str = "probe.center_frequency_hz";
-const CYCLES: &str = "probe.cycles";
-
-/// `∂L/∂θ_j = Σ d_channels·∂P/∂θ_j` for each path in `params`, for the render of
+/// `∂L/∂θ_j = Σ d_channels·∂P/∂θ_j` for each parameter in `params`, for the render of
 /// `scene` with `opts` (same seed ⇒ the same random numbers: see the module
 /// docs). `d_channels` is in `ChannelData::samples` layout (`[tx, el, sample]`).
 /// Parameters the transport does not depend on (imaging keys, …) get 0.
 ///
-/// Errors: an unknown parameter path (named), or `d_channels` of the wrong
-/// length.
+/// Errors: a parameter the scene lacks (named by its path), or `d_channels`
+/// of the wrong length.
 ///
 /// ```
 /// # let text = include_str!("../../../scenes/cylinder.toml");
 /// # let scene = usray_transport::Scene::from_toml_str(text, "cylinder.toml", ".").unwrap();
-/// use usray_transport::{channel_gradient, render, RenderOptions};
+/// use usray_transport::{channel_gradient, render, Field, ParamKey, RenderOptions};
 /// let opts = RenderOptions { rays_per_element: Some(2), ..Default::default() };
 /// let (data, _) = render(&scene, &opts).unwrap();
 /// // L = ½‖P‖²: dL/dP = P.
-/// let g = channel_gradient(&scene, &["objects.cylinder.radius_m"], &data.samples, &opts).unwrap();
+/// let radius = ParamKey::object("cylinder", Field::Radius);
+/// let g = channel_gradient(&scene, &[radius], &data.samples, &opts).unwrap();
 /// assert!(g[0].is_finite() && g[0] != 0.0);
-/// assert!(channel_gradient(&scene, &["objects.nope.radius_m"], &data.samples, &opts).is_err());
+/// let nope = ParamKey::object("nope", Field::Radius);
+/// assert!(channel_gradient(&scene, &[nope], &data.samples, &opts).is_err());
 /// ```
 pub fn channel_gradient(
     scene: &Scene,
-    params: &[&str],
+    params: &[ParamKey],
     d_channels: &[f64],
     opts: &RenderOptions,
 ) -> Result<Vec<f64>, SceneError> {
@@ -117,8 +116,8 @@ pub fn channel_gradient(
     // Step 1: G_b = g ⋆ taps_b for the render's records `b` (the pulse, or the
     // down-shift nodes' records), each followed by g ⋆ ∂taps_b/∂f_c and
     // g ⋆ ∂taps_b/∂cycles when either is asked for.
-    let want_pulse = params.iter().any(|p| *p == FC || *p == CYCLES);
-    let differentiated = params.iter().any(|p| p.ends_with(".attenuation_db_cm_mhz"));
+    let want_pulse = params.iter().any(|p| pulse_term(p).is_some());
+    let differentiated = params.iter().any(ParamKey::is_attenuation);
     let nodes = if opts.impulse_only {
         1
     } else {
@@ -328,16 +327,25 @@ fn record_offset(tx: usize, e: u32, n_el: usize, n_samples: usize) -> usize {
 
 /// Add the pulse-shape terms (`pulse_total = [Σ a·G'_fc(τ), Σ a·G'_cycles(τ)]`)
 /// to the gradient of the parameters of `group` that are pulse-shape keys.
-fn add_pulse_terms(group: &[&str], pulse_total: &[f64], out: &mut [f64]) {
+fn add_pulse_terms(group: &[ParamKey], pulse_total: &[f64], out: &mut [f64]) {
     if pulse_total.is_empty() {
         return;
     }
     for (o, p) in out.iter_mut().zip(group) {
-        match *p {
-            FC => *o += pulse_total[0],
-            CYCLES => *o += pulse_total[1],
-            _ => {}
+        if let Some(i) = pulse_term(p) {
+            *o += pulse_total[i];
         }
+    }
+}
+
+/// The index of `key`'s term in the pulse-shape totals: 0 for
+/// `probe.center_frequency_hz`, 1 for `probe.cycles`, `None` for a parameter
+/// that does not shape the pulse.
+fn pulse_term(key: &ParamKey) -> Option<usize> {
+    match (&key.owner, key.field) {
+        (Owner::Probe, Field::CenterFrequency) => Some(0),
+        (Owner::Probe, Field::Cycles) => Some(1),
+        _ => None,
     }
 }
 
@@ -353,17 +361,16 @@ fn chunks(n_tx: usize, n_el: usize) -> Vec<(usize, std::ops::Range<usize>)> {
 fn dual_pass<const N: usize>(
     scene: &Scene,
     plan: &AcquisitionPlan,
-    group: &[&str],
+    group: &[ParamKey],
     adj: &Adjoint,
     s: &TraceSettings,
     opts: &RenderOptions,
     out: &mut [f64],
 ) -> Result<(), SceneError> {
-    let st: SceneT<Dual<N>> =
-        scene.lift(|path, v| match group.iter().position(|q| *q == path) {
-            Some(i) => Dual::variable(v, i),
-            None => Dual::from_f64(v),
-        })?;
+    let st: SceneT<Dual<N>> = scene.lift(|key, v| match group.iter().position(|q| q == key) {
+        Some(i) => Dual::variable(v, i),
+        None => Dual::from_f64(v),
+    })?;
     let n_el = plan.elements.len();
     let work = chunks(plan.transmits.len(), n_el);
     // Deposits past the records' end have no weight (`Adjoint::weights`): not traced.
@@ -417,7 +424,7 @@ fn dual_pass<const N: usize>(
 fn reverse_pass(
     scene: &Scene,
     plan: &AcquisitionPlan,
-    params: &[&str],
+    params: &[ParamKey],
     adj: &Adjoint,
     s: &TraceSettings,
     opts: &RenderOptions,
@@ -446,8 +453,8 @@ fn reverse_pass(
                 // chunk and frozen; each path rewinds the tape to that point.
                 let mut rec = Recording::start();
                 rec.inputs_into(&theta, &mut vars);
-                let Ok(st) = scene.lift_with(Some(&meshes), |path, v| {
-                    match params.iter().position(|q| *q == path) {
+                let Ok(st) = scene.lift_with(Some(&meshes), |key, v| {
+                    match params.iter().position(|q| q == key) {
                         Some(i) => vars[i],
                         None => Var::constant(v),
                     }

@@ -41,7 +41,8 @@
 //! material = "target"
 //! "#;
 //! let scene = Scene::from_toml_str(text, "<example>", ".").unwrap();
-//! assert_eq!(scene.get("objects.cylinder.radius_m").unwrap(), 0.005);
+//! let radius = usray_transport::ParamKey::object("cylinder", usray_transport::Field::Radius);
+//! assert_eq!(scene.get(&radius).unwrap(), 0.005);
 //! let (data, stats) = render(&scene, &RenderOptions::default()).unwrap();
 //! // The strongest sample of a central element is the proximal wall echo at
 //! // 2 · 10 mm / c = 13 µs.
@@ -126,4 +127,4 @@ pub use gradient::channel_gradient;
 pub use integrator::{trace_path, Deposit, TraceSettings};
 pub use plan::AcquisitionPlan;
 pub use render::{render, render_lifted, trace_all, trace_block, RenderOptions, RenderStats};
-pub use scene::{Scene, SceneError, SceneT};
+pub use scene::{Field, ParamKey, Scene, SceneError, SceneT};

@@ -90,10 +90,11 @@ impl PulsePlan {
     /// let nodes = |s: &usray_transport::Scene, d| AcquisitionPlan::new(s).pulse.nodes(d);
     /// assert_eq!(nodes(&scene, false), 1);
     /// assert_eq!(nodes(&scene, true), 2);
-    /// scene.set("medium.attenuation_db_cm_mhz", 1.0).unwrap();
+    /// let alpha = usray_transport::ParamKey::medium(usray_transport::Field::Attenuation);
+    /// scene.set(&alpha, 1.0).unwrap();
     /// assert!(nodes(&scene, false) >= 2);
     /// // 100 dB/(cm·MHz): capped at a shift of f_c/2 (4 σ_f for 3 cycles).
-    /// scene.set("medium.attenuation_db_cm_mhz", 100.0).unwrap();
+    /// scene.set(&alpha, 100.0).unwrap();
     /// assert_eq!(nodes(&scene, false), 10);
     /// ```
     pub fn nodes(&self, differentiated: bool) -> usize {

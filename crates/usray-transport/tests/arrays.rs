@@ -251,7 +251,7 @@ fn renders_are_bit_identical_across_thread_counts() {
 #[test]
 fn radius_focus_and_virtual_source_match_finite_differences() {
     let s = scene(CONVEX, FOCUSED_AND_DIVERGING, 4, 3, CYLINDER);
-    let names: Vec<String> = s.params().into_iter().map(|p| p.0).collect();
+    let names: Vec<String> = s.params().into_iter().map(|p| p.0.to_string()).collect();
     for p in [
         "probe.radius_m",
         "acquisition.transmits.0.focus_m.0",

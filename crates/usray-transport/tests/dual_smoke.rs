@@ -10,7 +10,7 @@ use usray_transport::{render_lifted, RenderOptions, Scene};
 fn derivative_of_channel_data_wrt_radius_is_finite_and_nonzero() {
     let scene = Scene::load(scene_path("cylinder.toml")).unwrap();
     let st = scene
-        .lift::<Dual<2>>(|path, v| match path {
+        .lift::<Dual<2>>(|key, v| match key.to_string().as_str() {
             "objects.cylinder.radius_m" => Dual::variable(v, 0),
             "materials.target.impedance_mrayl" => Dual::variable(v, 1),
             _ => Dual::from_f64(v),
@@ -58,7 +58,8 @@ fn dual_derivative_matches_finite_difference_of_a_smooth_functional() {
             .map(|i| d[i] * window((i % n) as f64 / fs))
             .collect()
     };
-    let r0 = scene.get("objects.cylinder.radius_m").unwrap();
+    let radius = common::key("objects.cylinder.radius_m");
+    let r0 = scene.get(&radius).unwrap();
     // Step: with plane-wave emission some rays meet the cylinder near grazing,
     // where t(r) = z_c − √(r² − x²) curves sharply, so the central difference is
     // linear only for tiny steps. Measured (AD 304.21): h = 1e-5 → 70.6,
@@ -68,15 +69,15 @@ fn dual_derivative_matches_finite_difference_of_a_smooth_functional() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(1e-8);
     let mut sp = scene.clone();
-    sp.set("objects.cylinder.radius_m", r0 + h).unwrap();
+    sp.set(&radius, r0 + h).unwrap();
     let mut sm = scene.clone();
-    sm.set("objects.cylinder.radius_m", r0 - h).unwrap();
+    sm.set(&radius, r0 - h).unwrap();
     let fp: f64 = functional(&sp).iter().map(|v| v * v).sum();
     let fm: f64 = functional(&sm).iter().map(|v| v * v).sum();
     let fd = (fp - fm) / (2.0 * h);
     let st = scene
         .lift::<Dual<1>>(|p, v| {
-            if p == "objects.cylinder.radius_m" {
+            if *p == radius {
                 Dual::variable(v, 0)
             } else {
                 Dual::from_f64(v)

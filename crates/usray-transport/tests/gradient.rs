@@ -2,7 +2,7 @@
 //! independence, agreement with a dual render.
 
 mod common;
-use common::{scene_path, weights};
+use common::{key, keys, scene_path, weights};
 use usray_transport::{channel_gradient, render, render_lifted, RenderOptions, Scene};
 
 fn opts(rays: usize, threads: usize) -> RenderOptions {
@@ -44,14 +44,22 @@ fn errors_name_the_problem() {
     let scene = cylinder();
     let o = opts(1, 2);
     let (d, _) = render(&scene, &o).unwrap();
-    let e =
-        channel_gradient(&scene, &["objects.cylinder.radius_m"], &d.samples[1..], &o).unwrap_err();
+    let e = channel_gradient(
+        &scene,
+        &keys(&["objects.cylinder.radius_m"]),
+        &d.samples[1..],
+        &o,
+    )
+    .unwrap_err();
     assert_eq!(e.key, "d_channels", "{e}");
     assert!(e.to_string().contains(&d.samples.len().to_string()), "{e}");
-    let e = channel_gradient(&scene, &["objects.cylinder.nope"], &d.samples, &o).unwrap_err();
+    let e = scene.key("objects.cylinder.nope").unwrap_err();
     assert_eq!(e.key, "objects.cylinder.nope", "{e}");
+    let e =
+        channel_gradient(&scene, &keys(&["objects.nope.radius_m"]), &d.samples, &o).unwrap_err();
+    assert_eq!(e.key, "objects.nope.radius_m", "{e}");
     // Parameters the transport does not read get 0.
-    let g = channel_gradient(&scene, &["imaging.f_number"], &d.samples, &o).unwrap();
+    let g = channel_gradient(&scene, &keys(&["imaging.f_number"]), &d.samples, &o).unwrap();
     assert_eq!(g, vec![0.0]);
 }
 
@@ -71,10 +79,10 @@ fn equals_the_derivative_of_a_dual_render() {
         "materials.target.attenuation_db_cm_mhz",
         "probe.pitch_m",
     ] {
-        let st = scene.lift_dual::<1>(&[p]).unwrap();
+        let st = scene.lift_dual::<1>(&keys(&[p])).unwrap();
         let (pd, _, _) = render_lifted(&scene, &st, &o);
         let want: f64 = pd.iter().zip(&w).map(|(v, w)| v.eps[0] * w).sum();
-        let got = channel_gradient(&scene, &[p], &w, &o).unwrap()[0];
+        let got = channel_gradient(&scene, &keys(&[p]), &w, &o).unwrap()[0];
         eprintln!("{p}: dual render {want:.9e}, channel_gradient {got:.9e}");
         assert!(
             (got - want).abs() <= 1e-9 * want.abs(),
@@ -93,9 +101,11 @@ fn forward_and_reverse_modes_agree_and_threads_do_not_matter() {
 #[test]
 fn forward_and_reverse_modes_agree_with_attenuation() {
     let mut scene = cylinder();
-    scene.set("medium.attenuation_db_cm_mhz", 0.5).unwrap();
     scene
-        .set("materials.target.attenuation_db_cm_mhz", 0.7)
+        .set(&key("medium.attenuation_db_cm_mhz"), 0.5)
+        .unwrap();
+    scene
+        .set(&key("materials.target.attenuation_db_cm_mhz"), 0.7)
         .unwrap();
     assert!(
         usray_transport::AcquisitionPlan::new(&scene)
@@ -113,11 +123,12 @@ fn modes_agree(scene: &Scene) {
     let o = opts(2, 2);
     let (d, _) = render(&scene, &o).unwrap();
     let w = weights(d.samples.len(), 11);
+    let params = keys(&PARAMS);
     // 12 parameters: per-path reverse mode.
-    let rev = channel_gradient(&scene, &PARAMS, &w, &o).unwrap();
+    let rev = channel_gradient(&scene, &params, &w, &o).unwrap();
     // The same in two forward calls of 6 (Dual<6> passes).
-    let mut fwd = channel_gradient(&scene, &PARAMS[..6], &w, &o).unwrap();
-    fwd.extend(channel_gradient(&scene, &PARAMS[6..], &w, &o).unwrap());
+    let mut fwd = channel_gradient(&scene, &params[..6], &w, &o).unwrap();
+    fwd.extend(channel_gradient(&scene, &params[6..], &w, &o).unwrap());
     for (j, p) in PARAMS.iter().enumerate() {
         let scale = rev[j].abs().max(fwd[j].abs());
         eprintln!("{p}: reverse {:.12e}, forward {:.12e}", rev[j], fwd[j]);
@@ -131,8 +142,8 @@ fn modes_agree(scene: &Scene) {
     assert!(rev.iter().all(|v| v.is_finite()));
     assert!(rev.iter().filter(|v| **v != 0.0).count() >= 10);
     // Bit-identical with 1 thread, in both modes.
-    let rev1 = channel_gradient(&scene, &PARAMS, &w, &opts(2, 1)).unwrap();
-    let fwd1 = channel_gradient(&scene, &PARAMS[..6], &w, &opts(2, 1)).unwrap();
+    let rev1 = channel_gradient(&scene, &params, &w, &opts(2, 1)).unwrap();
+    let fwd1 = channel_gradient(&scene, &params[..6], &w, &opts(2, 1)).unwrap();
     let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(&rev), bits(&rev1));
     assert_eq!(bits(&fwd[..6]), bits(&fwd1));

@@ -16,7 +16,7 @@
 //! over the step; error ≤ 1e-7 there, roundoff-limited below).
 
 mod common;
-use common::{ad_and_fd, scene_path, weights};
+use common::{ad_and_fd, key, scene_path, weights};
 use usray_transport::{channel_gradient, render, RenderOptions, Scene};
 
 /// A shipped scene at 0° steering only, with extra replacements.
@@ -36,7 +36,7 @@ fn scene_0deg(name: &str, angles: &str, extra: &[(&str, &str)]) -> Scene {
 fn check(scene: &Scene, params: &[(&str, f64)]) -> Vec<(f64, f64, f64)> {
     let steps: Vec<(&str, f64)> = params
         .iter()
-        .map(|&(p, rel)| (p, rel * scene.get(p).unwrap().abs()))
+        .map(|&(p, rel)| (p, rel * scene.get(&key(p)).unwrap().abs()))
         .collect();
     ad_and_fd(scene, &steps)
 }
@@ -83,7 +83,8 @@ fn cylinder_translation_attenuation_and_pulse_match_finite_differences() {
 fn attenuation_at_its_null_matches_one_sided_differences() {
     let scene = scene_0deg("cylinder.toml", CYL_ANGLES, &[]);
     let p = "materials.target.attenuation_db_cm_mhz";
-    assert_eq!(scene.get(p).unwrap(), 0.0);
+    let k = key(p);
+    assert_eq!(scene.get(&k).unwrap(), 0.0);
     let opts = RenderOptions {
         rays_per_element: Some(4),
         threads: Some(2),
@@ -93,7 +94,7 @@ fn attenuation_at_its_null_matches_one_sided_differences() {
     let w = weights(d.samples.len(), 12345);
     let loss = |a: f64| -> f64 {
         let mut s = scene.clone();
-        s.set(p, a).unwrap();
+        s.set(&k, a).unwrap();
         let (d, _) = render(&s, &opts).unwrap();
         d.samples.iter().zip(&w).map(|(p, w)| p * w).sum()
     };
@@ -101,7 +102,7 @@ fn attenuation_at_its_null_matches_one_sided_differences() {
     let l0 = loss(0.0);
     let (d1, d2) = ((loss(h) - l0) / h, (loss(0.5 * h) - l0) / (0.5 * h));
     let fd = 2.0 * d2 - d1;
-    let ad = channel_gradient(&scene, &[p], &w, &opts).unwrap()[0];
+    let ad = channel_gradient(&scene, &[k], &w, &opts).unwrap()[0];
     let r = (ad - fd).abs() / fd.abs();
     eprintln!("{p} at 0: AD {ad:.9e}, Richardson FD {fd:.9e} (forward {d1:.9e}), relative difference {r:.2e}");
     assert!(r < 1e-5, "AD {ad} FD {fd} rel {r}");

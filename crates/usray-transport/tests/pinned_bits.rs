@@ -10,7 +10,8 @@
 //! reverse mode (12 parameters).
 
 mod common;
-use common::{header, weights};
+use common::{header, keys, weights};
+use usray_transport::scene::Owner;
 use usray_transport::{channel_gradient, render, RenderOptions, Scene};
 
 /// FNV-1a of the bit patterns.
@@ -79,27 +80,26 @@ fn gradients_keep_their_bits() {
     let w = weights(data.samples.len(), 777);
     let dual = channel_gradient(
         &s,
-        &[
+        &keys(&[
             "objects.cylinder.radius_m",
             "materials.target.impedance_mrayl",
             "probe.center_frequency_hz",
             "probe.cycles",
             "medium.attenuation_db_cm_mhz",
-        ],
+        ]),
         &w,
         &opts(),
     )
     .unwrap();
-    let reverse_params: Vec<String> = s
+    let reverse_params: Vec<_> = s
         .params()
         .into_iter()
         .map(|(p, _)| p)
-        .filter(|p| !p.starts_with("imaging."))
+        .filter(|p| p.owner != Owner::Imaging)
         .take(12)
         .collect();
     assert_eq!(reverse_params.len(), 12, "{reverse_params:?}");
-    let names: Vec<&str> = reverse_params.iter().map(String::as_str).collect();
-    let reverse = channel_gradient(&s, &names, &w, &opts()).unwrap();
+    let reverse = channel_gradient(&s, &reverse_params, &w, &opts()).unwrap();
     assert_eq!([hash(&dual), hash(&reverse)], PINNED_GRADIENTS);
 }
 

@@ -3,7 +3,7 @@
 //! equals the forward dual's.
 
 mod common;
-use common::scene_path;
+use common::{keys, scene_path};
 use usray_ad::reverse::Recording;
 use usray_ad::{Dual, Real};
 use usray_transport::{trace_path, Scene, TraceSettings};
@@ -37,9 +37,10 @@ fn functional<T: Real>(scene: &Scene, st: &usray_transport::SceneT<T>) -> T {
 #[test]
 fn reverse_mode_gradient_equals_forward_dual() {
     let scene = Scene::load(scene_path("cylinder.toml")).unwrap();
+    let params = keys(&PARAMS);
     // Forward: one dual pass with three partials.
     let st = scene
-        .lift::<Dual<3>>(|p, v| match PARAMS.iter().position(|q| *q == p) {
+        .lift::<Dual<3>>(|p, v| match params.iter().position(|q| q == p) {
             Some(i) => Dual::variable(v, i),
             None => Dual::from_f64(v),
         })
@@ -48,12 +49,12 @@ fn reverse_mode_gradient_equals_forward_dual() {
     // Reverse: inputs in the order of PARAMS (the lift visits paths in a fixed
     // order, so create the inputs first and hand them out by path).
     let rec = Recording::start();
-    let inputs: Vec<_> = PARAMS
+    let inputs: Vec<_> = params
         .iter()
         .map(|p| rec.input(scene.get(p).unwrap()))
         .collect();
     let st = scene
-        .lift(|p, v| match PARAMS.iter().position(|q| *q == p) {
+        .lift(|p, v| match params.iter().position(|q| q == p) {
             Some(i) => inputs[i],
             None => usray_ad::reverse::Var::from_f64(v),
         })

@@ -82,11 +82,16 @@ fn unknown_material_and_missing_mesh() {
 #[test]
 fn set_checks_paths_and_values() {
     let mut s = Scene::from_toml_str(&base(), "ok.toml", ".").unwrap();
-    assert!(s.set("objects.cylinder.radius_m", -1.0).is_err());
-    assert_eq!(s.get("objects.cylinder.radius_m").unwrap(), 0.005);
-    let e = s.set("objects.cylinder.radius", 1.0).unwrap_err();
+    let radius = s.key("objects.cylinder.radius_m").unwrap();
+    assert!(s.set(&radius, -1.0).is_err());
+    assert_eq!(s.get(&radius).unwrap(), 0.005);
+    let e = s.key("objects.cylinder.radius").unwrap_err();
     assert_eq!(e.key, "objects.cylinder.radius");
-    let paths: Vec<String> = s.params().into_iter().map(|(p, _)| p).collect();
+    let e = s
+        .set(&common::key("objects.tube.radius_m"), 1.0)
+        .unwrap_err();
+    assert_eq!(e.key, "objects.tube.radius_m");
+    let paths: Vec<String> = s.params().into_iter().map(|(p, _)| p.to_string()).collect();
     for p in [
         "objects.cylinder.radius_m",
         "materials.target.impedance_mrayl",

@@ -9,7 +9,7 @@ use crate::plots::{
 };
 use anyhow::{Context, Result};
 use serde_json::{json, Map, Value};
-use usray_optim::{FdPoint, FitOptions, FitResult, Objective, ParamSpec};
+use usray_optim::{FdPoint, FitOptions, FitResult, Objective, ParamSpec, ParamSpecError};
 use usray_signal::io::write_bmode_npy;
 use usray_transport::Scene;
 
@@ -19,28 +19,28 @@ use usray_transport::Scene;
 pub fn parse_params(scene: &Scene, params: &[String]) -> Result<Vec<ParamSpec>> {
     let mut specs: Vec<ParamSpec> = Vec::new();
     for text in params {
-        let path = text
-            .split_once('=')
-            .map_or(text.as_str(), |(p, _)| p)
-            .trim();
-        anyhow::ensure!(
-            !path.is_empty(),
-            "--params: empty entry in `{}` (expected PATH or PATH=MIN:MAX, comma-separated)",
-            params.join(",")
-        );
-        let value = scene.get(path).with_context(|| {
-            format!("--params: `{path}` is not a parameter of the scene (see `usray params SCENE`)")
+        let spec = ParamSpec::parse(text, scene).map_err(|e| match e {
+            ParamSpecError::Unknown { path, .. } if path.is_empty() => anyhow::anyhow!(
+                "--params: empty entry in `{}` (expected PATH or PATH=MIN:MAX, comma-separated)",
+                params.join(",")
+            ),
+            ParamSpecError::Unknown { path, source } => {
+                anyhow::Error::new(source).context(format!(
+                    "--params: `{path}` is not a parameter of the scene (see `usray params SCENE`)"
+                ))
+            }
+            e => e.into(),
         })?;
-        let spec = ParamSpec::parse(text, value)?;
+        let value = scene.get(&spec.key)?;
         anyhow::ensure!(
-            !specs.iter().any(|s| s.path == spec.path),
+            !specs.iter().any(|s| s.key == spec.key),
             "--params: `{}` is named twice",
-            spec.path
+            spec.key
         );
         anyhow::ensure!(
             value >= spec.min && value <= spec.max,
             "--params: `{}` = {value} lies outside its range {}:{}",
-            spec.path,
+            spec.key,
             spec.min,
             spec.max
         );
@@ -63,7 +63,7 @@ pub fn grad_json(
 ) -> Value {
     let mut g = Map::new();
     for (s, v) in specs.iter().zip(gradient) {
-        g.insert(s.path.clone(), json!(v));
+        g.insert(s.key.to_string(), json!(v));
     }
     let mut fd = Map::new();
     if let Some(sweeps) = sweeps {
@@ -72,7 +72,7 @@ pub fn grad_json(
                 .iter()
                 .map(|p| json!({"eps": p.eps, "fd": p.fd}))
                 .collect();
-            fd.insert(s.path.clone(), Value::Array(pts));
+            fd.insert(s.key.to_string(), Value::Array(pts));
         }
     }
     json!({"loss": loss, "gradient": g, "fd": fd})
@@ -89,7 +89,8 @@ pub fn write_sweep_plots(
 ) -> Result<Vec<String>> {
     let mut names = Vec::new();
     for ((s, &ad), sw) in specs.iter().zip(gradient).zip(sweeps) {
-        let unit = param_unit(&s.path);
+        let path = s.key.to_string();
+        let unit = param_unit(&path);
         let per_unit = if unit.name == "dimensionless" {
             "dimensionless".to_string()
         } else {
@@ -102,10 +103,10 @@ pub fn write_sweep_plots(
         };
         // ∂L/∂θ per shown unit: the loss is dimensionless.
         let shown = |g: f64| g / unit.per_si;
-        let a = format!("fd_{}.png", slug(&s.path));
+        let a = format!("fd_{}.png", slug(&path));
         line_figure(
             &out.path(&a),
-            &format!("{}: FD and AD vs ε", s.path),
+            &format!("{path}: FD and AD vs ε"),
             &[Panel {
                 caption: "",
                 x: step,
@@ -133,10 +134,10 @@ pub fn write_sweep_plots(
                 ],
             }],
         )?;
-        let b = format!("fd_error_{}.png", slug(&s.path));
+        let b = format!("fd_error_{}.png", slug(&path));
         line_figure(
             &out.path(&b),
-            &format!("{}: |FD − AD| vs ε", s.path),
+            &format!("{path}: |FD − AD| vs ε"),
             &[Panel {
                 caption: "",
                 x: step,
@@ -290,15 +291,16 @@ fn write_history_plots(
         }],
     )?;
     let specs = &objective.specs;
-    let labels: Vec<String> = specs
+    let paths: Vec<String> = specs.iter().map(|s| s.key.to_string()).collect();
+    let labels: Vec<String> = paths
         .iter()
-        .map(|s| format!("{} ({})", param_name(&s.path), param_unit(&s.path).name))
+        .map(|p| format!("{} ({})", param_name(p), param_unit(p).name))
         .collect();
-    let series: Vec<[Series; 1]> = specs
+    let series: Vec<[Series; 1]> = paths
         .iter()
         .enumerate()
-        .map(|(j, s)| {
-            let per_si = param_unit(&s.path).per_si;
+        .map(|(j, p)| {
+            let per_si = param_unit(p).per_si;
             let mut points: Vec<(f64, f64)> = result
                 .history
                 .iter()
@@ -312,12 +314,12 @@ fn write_history_plots(
             }]
         })
         .collect();
-    let panels: Vec<Panel> = specs
+    let panels: Vec<Panel> = paths
         .iter()
         .zip(&labels)
         .zip(&series)
-        .map(|((s, label), series)| Panel {
-            caption: &s.path,
+        .map(|((path, label), series)| Panel {
+            caption: path,
             x: iteration,
             y: Axis {
                 label,
@@ -341,7 +343,7 @@ pub fn fit_json(
     let named = |v: &[f64]| -> Value {
         let mut m = Map::new();
         for (s, x) in specs.iter().zip(v) {
-            m.insert(s.path.clone(), json!(x));
+            m.insert(s.key.to_string(), json!(x));
         }
         Value::Object(m)
     };
@@ -357,7 +359,7 @@ pub fn fit_json(
         .iter()
         .zip(start)
         .zip(&result.final_params)
-        .map(|((s, a), b)| json!({"path": s.path, "min": s.min, "max": s.max, "initial": a, "final": b}))
+        .map(|((s, a), b)| json!({"path": s.key.to_string(), "min": s.min, "max": s.max, "initial": a, "final": b}))
         .collect();
     let initial_loss = result.history.first().map_or(f64::NAN, |h| h.loss);
     json!({

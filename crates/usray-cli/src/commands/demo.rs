@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 use usray_optim::{best_fd, fd_sweeps, FitOptions, Objective, ParamSpec};
 use usray_transport::scene::Sampler;
-use usray_transport::{RenderOptions, Scene};
+use usray_transport::{Field, ParamKey, RenderOptions, Scene};
 
 /// The built-in scene (`scenes/cylinder.toml`, embedded so the demo runs anywhere).
 pub const CYLINDER_TOML: &str = include_str!("../../../../scenes/cylinder.toml");
@@ -42,7 +42,7 @@ pub fn demo_objective(rays: usize, threads: usize) -> Result<(Objective, Vec<f64
     // demo images on a 0.2 mm grid (4× fewer pixels than the scene's 0.1 mm). The
     // grid samples the envelope, whose −6 dB widths here are ≈ 0.46 mm axially
     // (c·cycles/(2 f_c)) and ≈ λ·F# ≈ 0.46 mm laterally: over two pixels each.
-    truth_scene.set("imaging.pixel_m", DEMO_PIXEL_M)?;
+    truth_scene.set(&ParamKey::imaging(Field::Pixel), DEMO_PIXEL_M)?;
     // The demo is the paper's experiment 2 and keeps its independent rays: its
     // start lies beside the impedance's mirror basin, which the stratified
     // sampler's fixed-seed landscape reaches more often (tests/calibration.rs).
@@ -52,15 +52,19 @@ pub fn demo_objective(rays: usize, threads: usize) -> Result<(Objective, Vec<f64
         sampler: Some(Sampler::Independent),
         ..Default::default()
     };
-    let truth: Vec<f64> = DEMO_PARAMS
+    let keys: Vec<ParamKey> = DEMO_PARAMS
         .iter()
-        .map(|(p, _, _)| truth_scene.get(p))
+        .map(|(p, _, _)| truth_scene.key(p))
+        .collect::<Result<_, _>>()?;
+    let truth: Vec<f64> = keys
+        .iter()
+        .map(|k| truth_scene.get(k))
         .collect::<Result<_, _>>()?;
     let mut start_scene = truth_scene.clone();
     let mut specs = Vec::new();
-    for ((p, _, f), t) in DEMO_PARAMS.iter().zip(&truth) {
-        start_scene.set(p, t * f)?;
-        specs.push(ParamSpec::parse(p, t * f)?);
+    for ((key, (_, _, f)), t) in keys.into_iter().zip(&DEMO_PARAMS).zip(&truth) {
+        start_scene.set(&key, t * f)?;
+        specs.push(ParamSpec::around(key, t * f));
     }
     // Reference: the true scene through the same fixed-seed pipeline.
     let helper = Objective::new(
@@ -136,7 +140,7 @@ pub fn run(common: &Common) -> Result<()> {
         writeln!(
             r,
             "| {} (`{}`) | {:.6} | {:.6} | {:.6} | {:+.2}% | [{:.4}, {:.4}] |",
-            DEMO_PARAMS[j].1, s.path, truth[j], start[j], result.final_params[j], err, s.min, s.max
+            DEMO_PARAMS[j].1, s.key, truth[j], start[j], result.final_params[j], err, s.min, s.max
         )?;
     }
     writeln!(r)?;
@@ -167,7 +171,7 @@ pub fn run(common: &Common) -> Result<()> {
             writeln!(
                 r,
                 "| `{}` | {:.5e} | {:.5e} | {:.2e} | {:.2e} |",
-                s.path, eval.gradient[j], p.fd, p.eps, rel
+                s.key, eval.gradient[j], p.fd, p.eps, rel
             )?;
         }
     }

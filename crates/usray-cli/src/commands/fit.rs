@@ -6,6 +6,7 @@ use crate::output::OutDir;
 use anyhow::{Context, Result};
 use std::path::Path;
 use usray_optim::{fit_journaled, FitOptions, Journal, Objective, ParamSpec};
+use usray_transport::ParamKey;
 
 /// Settings of `usray fit` beyond the objective.
 pub struct FitArgs {
@@ -97,9 +98,10 @@ pub fn parse_truth(specs: &[ParamSpec], entries: &[String]) -> Result<Vec<Option
         let (path, value) = entry
             .split_once('=')
             .with_context(|| format!("--truth: `{entry}` is not PATH=VALUE"))?;
+        let key = path.trim().parse::<ParamKey>().ok();
         let j = specs
             .iter()
-            .position(|s| s.path == path.trim())
+            .position(|s| Some(&s.key) == key.as_ref())
             .with_context(|| format!("--truth: `{}` is not one of --params", path.trim()))?;
         let v: f64 = value
             .trim()

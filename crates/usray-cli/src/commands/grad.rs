@@ -62,7 +62,7 @@ pub fn run(
     eprintln!("usray grad: loss {:.6e}", eval.loss);
     for (j, s) in objective.specs.iter().enumerate() {
         let g = eval.gradient[j];
-        let mut line = format!("  {} = {}: ∂L/∂θ = {g:.6e}", s.path, at[j]);
+        let mut line = format!("  {} = {}: ∂L/∂θ = {g:.6e}", s.key, at[j]);
         if eval.demod_fc_part[j] != 0.0 {
             line += &format!(
                 " (of which the image formation's f_c, with the channel data held: {:.3e})",

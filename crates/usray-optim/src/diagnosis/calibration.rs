@@ -12,30 +12,31 @@ use super::results::Timings;
 use crate::comparison::{noise_floor, Comparison};
 use crate::fit::{fit_journaled, FitOptions};
 use crate::objective::{Evaluation, Objective};
-use crate::params::ParamSpec;
+use crate::params::{ParamSpec, ParamSpecError};
 use crate::OptimError;
 use std::time::Instant;
-use usray_transport::{RenderOptions, Scene};
+use usray_transport::scene::Owner;
+use usray_transport::{Field, ParamKey, RenderOptions, Scene};
 
 /// The documented default free parameters of the base model: each object's
 /// radius (cylinders, spheres) and, for each object's material, its impedance
 /// and (if rough) roughness.
-pub fn default_free_params(scene: &Scene) -> Vec<String> {
+pub fn default_free_params(scene: &Scene) -> Vec<ParamKey> {
     let mut out = Vec::new();
     let mut seen = Vec::new();
     for o in &scene.objects {
         if o.radius_m.is_some() {
-            out.push(format!("objects.{}.radius_m", o.name));
+            out.push(ParamKey::object(&o.name, Field::Radius));
         }
         if !seen.contains(&o.material) {
             seen.push(o.material.clone());
-            out.push(format!("materials.{}.impedance_mrayl", o.material));
+            out.push(ParamKey::material(&o.material, Field::Impedance));
             if scene
                 .materials
                 .get(&o.material)
                 .is_some_and(|m| m.roughness > 0.0)
             {
-                out.push(format!("materials.{}.roughness", o.material));
+                out.push(ParamKey::material(&o.material, Field::Roughness));
             }
         }
     }
@@ -78,17 +79,19 @@ const IMPEDANCE_MARGIN: f64 = 0.03;
 /// let scene = usray_transport::Scene::load("../../scenes/cylinder.toml").unwrap();
 /// let z0 = scene.medium.impedance_mrayl;
 /// let s = calibration_spec(&scene, "materials.target.impedance_mrayl").unwrap();
-/// assert!(s.min >= 1.03 * z0 - 1e-12 && s.max > scene.get(&s.path).unwrap());
+/// assert!(s.min >= 1.03 * z0 - 1e-12 && s.max > scene.get(&s.key).unwrap());
 /// ```
 ///
 /// # Errors
 /// A path the scene lacks, or a malformed range.
 pub fn calibration_spec(scene: &Scene, text: &str) -> Result<ParamSpec, OptimError> {
-    let path = text.split_once('=').map_or(text, |(a, _)| a).trim();
-    let value = scene.get(path)?;
-    let mut spec = ParamSpec::parse(text, value)?;
+    let mut spec = ParamSpec::parse(text, scene).map_err(|e| match e {
+        ParamSpecError::Unknown { source, .. } => OptimError::Scene(source),
+        e => OptimError::Param(e),
+    })?;
+    let value = scene.get(&spec.key)?;
     let is_material_impedance =
-        path.starts_with("materials.") && path.ends_with(".impedance_mrayl");
+        matches!(spec.key.owner, Owner::Material(_)) && spec.key.field == Field::Impedance;
     if is_material_impedance && !text.contains('=') {
         let z0 = scene.medium.impedance_mrayl;
         if value > z0 {

@@ -4,8 +4,8 @@
 //! `parameter_candidates`.
 
 use crate::OptimError;
-use usray_transport::scene::{Material, ShapeKind};
-use usray_transport::Scene;
+use usray_transport::scene::{Material, Owner, ShapeKind};
+use usray_transport::{Field, ParamKey, Scene};
 
 /// Fixed density of the `volume_scattering` candidate, scatterers per mm³ (well
 /// above the ≈ 10 per resolution cell of fully developed speckle at 5 MHz); its
@@ -26,8 +26,8 @@ pub(crate) const EFFECT_LEARNING_RATE: f64 = 0.05;
 pub struct Candidate {
     /// Effect name (CONTRACT §5): `wall_thickness`, `attenuation`, …
     pub effect: String,
-    /// The strength parameter's dotted path once switched on.
-    pub path: String,
+    /// The strength parameter once switched on.
+    pub key: ParamKey,
     /// Values at which it may be scored: the null where the model is smooth
     /// there; else a few values across the range (the best by loss is scored).
     pub onsets: Vec<f64>,
@@ -43,7 +43,7 @@ pub struct Candidate {
     /// cylinder — is a change of structure, not a thickness.
     pub null: Option<f64>,
     /// Other scene values set with the switch (e.g. the scatterer density).
-    pub fixed: Vec<(String, f64)>,
+    pub fixed: Vec<(ParamKey, f64)>,
     /// Learning rate of the strength in a confirming refit, in fractions of
     /// [`Candidate::range`] per step (0.05 unless the loss's
     /// basin is narrower than the range, as for a wall).
@@ -54,34 +54,31 @@ impl Candidate {
     /// `scene` with this effect switched on at `value` (and its fixed settings).
     ///
     /// # Errors
-    /// A path the scene does not have.
+    /// A parameter the scene does not have.
     pub fn switched_on(&self, scene: &Scene, value: f64) -> Result<Scene, OptimError> {
         let mut s = scene.clone();
-        switch_on(&mut s, &self.path, value)?;
-        for (p, v) in &self.fixed {
-            switch_on(&mut s, p, *v)?;
+        switch_on(&mut s, &self.key, value)?;
+        for (k, v) in &self.fixed {
+            switch_on(&mut s, k, *v)?;
         }
         Ok(s)
     }
 }
 
-/// Sets `path` to `value`, creating the optional keys an effect switches on
+/// Sets `key` to `value`, creating the optional keys an effect switches on
 /// (`objects.NAME.thickness_m`, `imaging.sound_speed_m_s`).
-fn switch_on(s: &mut Scene, path: &str, value: f64) -> Result<(), OptimError> {
-    if let Some(name) = path
-        .strip_prefix("objects.")
-        .and_then(|p| p.strip_suffix(".thickness_m"))
-    {
-        let o = s
-            .objects
-            .iter_mut()
-            .find(|o| o.name == name)
-            .ok_or_else(|| OptimError::Diagnosis(format!("no object `{name}` for {path}")))?;
-        o.thickness_m = Some(value);
-    } else if path == "imaging.sound_speed_m_s" {
-        s.imaging.sound_speed_m_s = Some(value);
-    } else {
-        s.set(path, value)?;
+fn switch_on(s: &mut Scene, key: &ParamKey, value: f64) -> Result<(), OptimError> {
+    match (&key.owner, key.field) {
+        (Owner::Object(name), Field::Thickness) => {
+            let o = s
+                .objects
+                .iter_mut()
+                .find(|o| o.name == *name)
+                .ok_or_else(|| OptimError::Diagnosis(format!("no object `{name}` for {key}")))?;
+            o.thickness_m = Some(value);
+        }
+        (Owner::Imaging, Field::SoundSpeed) => s.imaging.sound_speed_m_s = Some(value),
+        _ => s.set(key, value)?,
     }
     s.validate()?;
     Ok(())
@@ -105,7 +102,7 @@ fn switch_on(s: &mut Scene, path: &str, value: f64) -> Result<(), OptimError> {
 /// assert_eq!(w.onsets.len(), 10);
 /// assert!((w.onsets[1] - w.onsets[0] - 1570.0 * 3.0 / (2.0 * 5.0e6)).abs() < 1e-12);
 /// // Every onset lies inside the refit's range, even for a wire-thin cylinder.
-/// scene.set("objects.cylinder.radius_m", 0.1e-3).unwrap();
+/// scene.set(&usray_transport::ParamKey::object("cylinder", usray_transport::Field::Radius), 0.1e-3).unwrap();
 /// let w = wall(&scene);
 /// assert!(!w.onsets.is_empty());
 /// assert!(w.onsets.iter().all(|t| *t > w.range.0 && *t < w.range.1));
@@ -135,7 +132,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 }
                 out.push(Candidate {
                     effect: "wall_thickness".into(),
-                    path: format!("objects.{}.thickness_m", o.name),
+                    key: ParamKey::object(&o.name, Field::Thickness),
                     onsets,
                     range,
                     two_sided: false,
@@ -149,7 +146,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
     if scene.medium.attenuation_db_cm_mhz == 0.0 {
         out.push(Candidate {
             effect: "attenuation".into(),
-            path: "medium.attenuation_db_cm_mhz".into(),
+            key: ParamKey::medium(Field::Attenuation),
             onsets: vec![0.0],
             range: (0.0, 2.0),
             two_sided: false,
@@ -173,7 +170,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         {
             out.push(Candidate {
                 effect: "attenuation".into(),
-                path: format!("materials.{m}.attenuation_db_cm_mhz"),
+                key: ParamKey::material(m, Field::Attenuation),
                 onsets: vec![0.0],
                 range: (0.0, 2.0),
                 two_sided: false,
@@ -189,7 +186,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         }) {
             out.push(Candidate {
                 effect: "volume_scattering".into(),
-                path: format!("materials.{m}.scatterer_strength"),
+                key: ParamKey::material(m, Field::ScattererStrength),
                 // Power per volume ρ·strength² (ScattererField): 0.7 at 5 per
                 // mm³ is a speckle as bright as a strong specular echo.
                 onsets: vec![0.035],
@@ -197,7 +194,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 two_sided: false,
                 null: Some(0.0),
                 fixed: vec![(
-                    format!("materials.{m}.scatterer_density_per_mm3"),
+                    ParamKey::material(m, Field::ScattererDensity),
                     SCATTERER_DENSITY_PER_MM3,
                 )],
                 learning_rate: EFFECT_LEARNING_RATE,
@@ -218,7 +215,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         // renders), each within the basin of its neighbours.
         out.push(Candidate {
             effect: "sound_speed".into(),
-            path: "medium.sound_speed_m_s".into(),
+            key: ParamKey::medium(Field::SoundSpeed),
             onsets: [1.0, 0.975, 1.025, 0.95, 1.05]
                 .iter()
                 .map(|f| f * c_img)
@@ -226,7 +223,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             range: (0.93 * c_img, 1.07 * c_img),
             two_sided: true,
             null: Some(c_img),
-            fixed: vec![("imaging.sound_speed_m_s".into(), c_img)],
+            fixed: vec![(ParamKey::imaging(Field::SoundSpeed), c_img)],
             learning_rate: EFFECT_LEARNING_RATE,
         });
     }
@@ -235,7 +232,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
     let cycles = scene.probe.cycles;
     out.push(Candidate {
         effect: "pulse_length".into(),
-        path: "probe.cycles".into(),
+        key: ParamKey::probe(Field::Cycles),
         onsets: vec![cycles],
         range: (0.5 * cycles, 3.0 * cycles),
         two_sided: true,
@@ -246,7 +243,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
     if scene.acquisition.depth_gain_db_per_cm == 0.0 {
         out.push(Candidate {
             effect: "depth_gain".into(),
-            path: "acquisition.depth_gain_db_per_cm".into(),
+            key: ParamKey::acquisition(Field::DepthGain),
             onsets: vec![0.0],
             // Only up, as a scanner's time-gain boosts deep echoes.
             // A gain *down* with depth is not a separate effect in a B-mode: it

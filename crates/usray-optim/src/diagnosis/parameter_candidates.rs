@@ -13,7 +13,7 @@ use super::catalogue::{
     wall_echo_width_m, wall_learning_rate, wall_onsets, Candidate, DEPTH_GAIN_MAX_DB_PER_CM,
     EFFECT_LEARNING_RATE,
 };
-use usray_transport::Scene;
+use usray_transport::{Field, ParamKey, Scene};
 
 /// Relative half-width of the range of a sound speed or centre frequency
 /// candidate (±15%: beyond the spread of soft tissues' speeds, 1450–1640 m/s,
@@ -30,19 +30,20 @@ const RELATIVE_RANGE: f64 = 0.15;
 /// let scene = usray_transport::Scene::load("../../scenes/ring.toml").unwrap();
 /// let c = parameter_candidates(&scene, &[]);
 /// let wall = c.iter().find(|c| c.effect == "wall_thickness").unwrap();
-/// assert_eq!(wall.path, "objects.tube.thickness_m");
+/// let tube_wall = usray_transport::ParamKey::object("tube", usray_transport::Field::Thickness);
+/// assert_eq!(wall.key, tube_wall);
 /// assert_eq!(wall.null, Some(0.001));
 /// assert!(wall.two_sided && wall.range.0 < 0.001 && wall.range.1 > 0.001);
 /// // A calibrated parameter is not a candidate.
-/// let c = parameter_candidates(&scene, &["objects.tube.thickness_m".to_string()]);
-/// assert!(c.iter().all(|c| c.path != "objects.tube.thickness_m"));
+/// let c = parameter_candidates(&scene, &[tube_wall.clone()]);
+/// assert!(c.iter().all(|c| c.key != tube_wall));
 /// ```
-pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candidate> {
+pub fn parameter_candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candidate> {
     let mut out = Vec::new();
-    let free = |path: &str| !calibrated.iter().any(|p| p == path);
+    let free = |key: &ParamKey| !calibrated.contains(key);
     let f_c = scene.probe.center_frequency_hz;
     let lambda = scene.medium.sound_speed_m_s / f_c;
-    let two_sided = |effect: &str, path: String, v: f64, range: (f64, f64), extra: &[f64]| {
+    let two_sided = |effect: &str, key: ParamKey, v: f64, range: (f64, f64), extra: &[f64]| {
         let mut onsets = vec![v];
         onsets.extend(
             extra
@@ -52,7 +53,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candida
         );
         Candidate {
             effect: effect.into(),
-            path,
+            key,
             onsets,
             range,
             two_sided: true,
@@ -65,7 +66,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candida
         let (Some(r), Some(t)) = (o.radius_m, o.thickness_m) else {
             continue;
         };
-        let path = format!("objects.{}.thickness_m", o.name);
+        let path = ParamKey::object(&o.name, Field::Thickness);
         let Some(m) = scene.materials.get(&o.material) else {
             continue;
         };
@@ -90,7 +91,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candida
         let Some(m) = scene.materials.get(name) else {
             continue;
         };
-        let path = format!("materials.{name}.sound_speed_m_s");
+        let path = ParamKey::material(name, Field::SoundSpeed);
         if free(&path) {
             let v = m.sound_speed_m_s;
             out.push(two_sided(
@@ -102,7 +103,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candida
             ));
         }
         let on = |x: f64| x > 0.0;
-        let path = format!("materials.{name}.attenuation_db_cm_mhz");
+        let path = ParamKey::material(name, Field::Attenuation);
         if on(m.attenuation_db_cm_mhz) && free(&path) {
             let v = m.attenuation_db_cm_mhz;
             out.push(two_sided(
@@ -113,71 +114,71 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[String]) -> Vec<Candida
                 &[],
             ));
         }
-        let path = format!("materials.{name}.scatterer_strength");
+        let path = ParamKey::material(name, Field::ScattererStrength);
         if on(m.scatterer_strength) && on(m.scatterer_density_per_mm3) && free(&path) {
             let v = m.scatterer_strength;
             out.push(two_sided("volume_scattering", path, v, (0.0, 4.0 * v), &[]));
         }
-        let path = format!("materials.{name}.roughness");
+        let path = ParamKey::material(name, Field::Roughness);
         if on(m.roughness) && free(&path) {
             let v = m.roughness;
             out.push(two_sided("roughness", path, v, (0.0, 1.0), &[]));
         }
     }
-    let path = "medium.attenuation_db_cm_mhz";
+    let path = ParamKey::medium(Field::Attenuation);
     let v = scene.medium.attenuation_db_cm_mhz;
-    if v > 0.0 && free(path) {
+    if v > 0.0 && free(&path) {
         out.push(two_sided(
             "attenuation",
-            path.into(),
+            path,
             v,
             (0.0, (2.0f64).max(2.0 * v)),
             &[],
         ));
     }
     let c_img = scene.imaging.sound_speed_m_s;
-    let path = "medium.sound_speed_m_s";
+    let path = ParamKey::medium(Field::SoundSpeed);
     let v = scene.medium.sound_speed_m_s;
-    if c_img.is_some_and(|c| c != v) && free(path) {
+    if c_img.is_some_and(|c| c != v) && free(&path) {
         // The medium's speed already differs from the beamformer's: the
         // structural candidate is off, this one asks whether the difference is
         // the right one (the structural candidate's range and onsets).
         out.push(two_sided(
             "sound_speed",
-            path.into(),
+            path,
             v,
             (0.93 * v, 1.07 * v),
             &[0.975 * v, 1.025 * v],
         ));
     }
-    let path = "probe.center_frequency_hz";
-    if free(path) {
+    let path = ParamKey::probe(Field::CenterFrequency);
+    if free(&path) {
         out.push(two_sided(
             "center_frequency",
-            path.into(),
+            path,
             f_c,
             ((1.0 - RELATIVE_RANGE) * f_c, (1.0 + RELATIVE_RANGE) * f_c),
             &[],
         ));
     }
-    let path = "probe.element_width_m";
+    let path = ParamKey::probe(Field::ElementWidth);
     let w = scene.probe.element_width_m;
-    if scene.probe.n_elements > 1 && free(path) {
+    if scene.probe.n_elements > 1 && free(&path) {
         // Between a third of the pitch and the pitch (kerfless).
         let pitch = scene.probe.pitch_m;
         out.push(two_sided(
             "element_width",
-            path.into(),
+            path,
             w,
             ((pitch / 3.0).min(w), pitch.max(w)),
             &[],
         ));
     }
-    let path = "acquisition.depth_gain_db_per_cm";
+    let path = ParamKey::acquisition(Field::DepthGain);
     let g = scene.acquisition.depth_gain_db_per_cm;
-    if g != 0.0 && free(path) {
+    if g != 0.0 && free(&path) {
         let span = DEPTH_GAIN_MAX_DB_PER_CM.max(2.0 * g.abs());
-        out.push(two_sided("depth_gain", path.into(), g, (-span, span), &[]));
+        out.push(two_sided("depth_gain", path, g, (-span, span), &[]));
     }
     out
 }

@@ -69,7 +69,7 @@ fn refit_candidate(
     let start = start.clamp(c.range.0 + margin, c.range.1 - margin);
     let on = c.switched_on(&stage.scene, start)?;
     let mut refit_specs = vec![ParamSpec {
-        path: c.path.clone(),
+        key: c.key.clone(),
         min: c.range.0,
         max: c.range.1,
     }];
@@ -83,11 +83,11 @@ fn refit_candidate(
         &x0,
         &FitOptions {
             iters: opts.refit_iters,
-            lr_overrides: vec![(c.path.clone(), refit_learning_rate(c, start))],
+            lr_overrides: vec![(c.key.clone(), refit_learning_rate(c, start))],
             ..opts.fit.clone()
         },
         &opts.journal,
-        &format!("refit {} ({})", c.effect, c.path),
+        &format!("refit {} ({})", c.effect, c.key),
         |_| {},
     )?;
     let fitted = obj.scene_at(&r.final_params)?;
@@ -116,14 +116,14 @@ fn refit_candidate(
             .specs
             .iter()
             .zip(&r.final_params)
-            .map(|(s, v)| (s.path.clone(), *v))
-            .chain(c.fixed.iter().cloned())
+            .map(|(s, v)| (s.key.to_string(), *v))
+            .chain(c.fixed.iter().map(|(k, v)| (k.to_string(), *v)))
             .collect(),
         params_std: obj
             .specs
             .iter()
             .zip(std)
-            .map(|(s, v)| (s.path.clone(), v))
+            .map(|(s, v)| (s.key.to_string(), v))
             .collect(),
         image_s,
         scene: fitted,
@@ -194,7 +194,7 @@ pub(crate) fn null_refit(
             params: specs
                 .iter()
                 .zip(&null_fit.final_params)
-                .map(|(s, v)| (s.path.clone(), *v))
+                .map(|(s, v)| (s.key.to_string(), *v))
                 .collect(),
         },
         baseline,
@@ -243,7 +243,7 @@ pub(crate) fn refit_leading(
         .collect();
     for k in leading {
         let c = &candidates[k];
-        progress(&format!("refitting with {} ({})", c.effect, c.path));
+        progress(&format!("refitting with {} ({})", c.effect, c.key));
         let r = match refit_candidate(c, starts[k], stage, specs, measured, held_data, opts) {
             Ok(r) => r,
             Err(e) => {

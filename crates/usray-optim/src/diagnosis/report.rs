@@ -240,7 +240,8 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         writeln!(r, "| `{p}` | {v:.6e} | {} |", std_text(std))?;
     }
     for (p, v) in &d.calibrated.params {
-        if let Some(m) = impedance_mirror(base, p, *v) {
+        let mirror = p.parse().ok().and_then(|k| impedance_mirror(base, &k, *v));
+        if let Some(m) = mirror {
             writeln!(r, "\n**`{p}` = {v:.3} MRayl or {m:.3}?** A B-mode barely tells an impedance `Z` from its mirror `Z₁²/Z` = {m:.3} MRayl (`Z₁` = {:.3} MRayl, the background's): the wall reflects with the opposite sign and passes with the same `1 − R²`, which the envelope does not show. Which side of `Z₁` the fit lands on depends on its start; knowing whether the target is denser than its surroundings decides it.", base.medium.impedance_mrayl)?;
         }
     }

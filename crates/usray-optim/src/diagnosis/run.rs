@@ -38,6 +38,9 @@ pub fn diagnose(
     let mut timings = Timings::default();
     let free: Vec<String> = if opts.free_params.is_empty() {
         default_free_params(scene)
+            .iter()
+            .map(ToString::to_string)
+            .collect()
     } else {
         opts.free_params.clone()
     };
@@ -45,7 +48,7 @@ pub fn diagnose(
         .iter()
         .map(|p| calibration_spec(scene, p))
         .collect::<Result<Vec<_>, OptimError>>()?;
-    let calibrated_paths: Vec<String> = specs.iter().map(|s| s.path.clone()).collect();
+    let calibrated_keys: Vec<_> = specs.iter().map(|s| s.key.clone()).collect();
 
     // Step 1: calibrate, and raise the rays while the simulation's noise holds
     // too large a share of the gap and the budget allows.
@@ -80,7 +83,7 @@ pub fn diagnose(
     // Step 3: score every candidate by one value + gradient at its onset.
     let t = Instant::now();
     let mut candidates = catalogue(&stage.scene);
-    candidates.extend(parameter_candidates(&stage.scene, &calibrated_paths));
+    candidates.extend(parameter_candidates(&stage.scene, &calibrated_keys));
     let Screening {
         mut effects,
         starts,
@@ -165,12 +168,12 @@ pub fn diagnose(
             params: specs
                 .iter()
                 .zip(&stage.params)
-                .map(|(s, v)| (s.path.clone(), *v))
+                .map(|(s, v)| (s.key.to_string(), *v))
                 .collect(),
             params_std: specs
                 .iter()
                 .zip(cal_std)
-                .map(|(s, v)| (s.path.clone(), v))
+                .map(|(s, v)| (s.key.to_string(), v))
                 .collect(),
             loss: stage.eval.loss,
             loss_held_out: stage.held_loss,

@@ -59,7 +59,7 @@ pub fn score_candidate(
     setup: &LossSetup,
 ) -> Result<Score, OptimError> {
     let spec = ParamSpec {
-        path: c.path.clone(),
+        key: c.key.clone(),
         min: c.range.0,
         max: c.range.1,
     };
@@ -224,7 +224,7 @@ pub(crate) fn screen(
     let mut effects = Vec::new();
     let mut starts = Vec::new();
     for c in candidates {
-        progress(&format!("scoring {} ({})", c.effect, c.path));
+        progress(&format!("scoring {} ({})", c.effect, c.key));
         let scored = score_candidate(
             c,
             &stage.scene,
@@ -249,7 +249,7 @@ pub(crate) fn screen(
         starts.push(sc.start);
         effects.push(EffectResult {
             effect: c.effect.clone(),
-            path: c.path.clone(),
+            path: c.key.to_string(),
             score: sc.score,
             onset: sc.onset,
             range: [c.range.0, c.range.1],

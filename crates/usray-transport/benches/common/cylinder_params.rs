@@ -1,7 +1,7 @@
 /// Sixteen parameters of `scenes/cylinder.toml` (the first three: radius, depth,
 /// impedance), shared by the gradient-cost bench and the `gradient_cost` example so
 /// that time and memory are measured on the same parameter set.
-pub const PARAMS: [&str; 16] = [
+pub const PATHS: [&str; 16] = [
     "objects.cylinder.radius_m",
     "objects.cylinder.center_m.2",
     "materials.target.impedance_mrayl",
@@ -19,3 +19,8 @@ pub const PARAMS: [&str; 16] = [
     "probe.elevation_m",
     "acquisition.angles_deg.0",
 ];
+
+/// [`PATHS`] as keys.
+pub fn params() -> Vec<usray_transport::ParamKey> {
+    PATHS.iter().map(|p| p.parse().expect("a parameter path")).collect()
+}

@@ -5,6 +5,7 @@
 //! (`ArrayGeometry::from_meta`, `TransmitWave::from_meta`), evaluated in
 //! values for the acquisition plan and in `T` for the tracer.
 
+use super::key::{Field, ParamKey};
 use super::{Scene, SceneError};
 use usray_ad::Real;
 use usray_signal::array::{ArrayGeometry, ArrayKind, RADIUS_KEY};
@@ -66,21 +67,24 @@ impl Scene {
 
     /// The array's geometry in values (the scene is validated).
     pub fn array_geometry(&self) -> ArrayGeometry<f64> {
-        self.array_geometry_t(|p| self.get(p).unwrap_or(f64::NAN))
+        self.array_geometry_t(|k| self.get(&k).unwrap_or(f64::NAN))
     }
 
     /// The array's geometry with its parameters read by `get` (a parameter
-    /// path → its value in `T`): `probe.pitch_m`, `probe.element_width_m`,
+    /// key → its value in `T`): `probe.pitch_m`, `probe.element_width_m`,
     /// `probe.radius_m` (convex arrays; `+∞` for flat ones, unused).
-    pub(crate) fn array_geometry_t<T: Real>(&self, get: impl Fn(&str) -> T) -> ArrayGeometry<T> {
+    pub(crate) fn array_geometry_t<T: Real>(
+        &self,
+        get: impl Fn(ParamKey) -> T,
+    ) -> ArrayGeometry<T> {
         let kind = ArrayKind::parse(&self.probe.kind).unwrap_or(ArrayKind::Linear);
         ArrayGeometry {
             kind,
             n_elements: self.probe.n_elements,
-            pitch_m: get("probe.pitch_m"),
-            element_width_m: get("probe.element_width_m"),
+            pitch_m: get(ParamKey::probe(Field::Pitch)),
+            element_width_m: get(ParamKey::probe(Field::ElementWidth)),
             radius_m: match self.probe.radius_m {
-                Some(_) => get("probe.radius_m"),
+                Some(_) => get(ParamKey::probe(Field::Radius)),
                 None => T::from_f64(f64::INFINITY),
             },
         }
@@ -88,7 +92,7 @@ impl Scene {
 
     /// The transmitted waves in values (the scene is validated).
     pub fn transmit_waves(&self) -> Vec<TransmitWave<f64>> {
-        self.transmit_waves_t(|p| self.get(p).unwrap_or(f64::NAN))
+        self.transmit_waves_t(|k| self.get(&k).unwrap_or(f64::NAN))
     }
 
     /// The transmitted waves with their parameters read by `get`: plane waves
@@ -97,25 +101,25 @@ impl Scene {
     /// focused waves from `….virtual_source_m.K` and `….focus_m.K`.
     pub(crate) fn transmit_waves_t<T: Real>(
         &self,
-        get: impl Fn(&str) -> T,
+        get: impl Fn(ParamKey) -> T,
     ) -> Vec<TransmitWave<T>> {
         let deg = T::from_f64(core::f64::consts::PI / 180.0);
         let a = &self.acquisition;
         let plane = (0..a.angles_deg.len()).map(|i| TransmitWave::PlaneWave {
-            angle_rad: get(&format!("acquisition.angles_deg.{i}")) * deg,
+            angle_rad: get(ParamKey::acquisition(Field::Angles).at(i)) * deg,
         });
         let listed = a.transmits.iter().enumerate().map(|(i, t)| {
-            let k = |leaf: &str| get(&format!("acquisition.transmits.{i}.{leaf}"));
-            let point = |key: &str| [k(&format!("{key}.0")), k(&format!("{key}.1"))];
+            let k = |field| ParamKey::transmit(i, field);
+            let point = |field| [get(k(field).at(0)), get(k(field).at(1))];
             match t.kind.as_str() {
                 "diverging" => TransmitWave::Diverging {
-                    source_m: point(VIRTUAL_SOURCE_KEY),
+                    source_m: point(Field::VirtualSource),
                 },
                 "focused" => TransmitWave::Focused {
-                    focus_m: point(FOCUS_KEY),
+                    focus_m: point(Field::Focus),
                 },
                 _ => TransmitWave::PlaneWave {
-                    angle_rad: k("angle_deg") * deg,
+                    angle_rad: get(k(Field::Angle)) * deg,
                 },
             }
         });

@@ -1,7 +1,7 @@
 //! The numeric state of a scene in any `T: Real`: what the tracer reads.
 
+use super::key::{Field, ParamKey};
 use super::{Emission, Scene, SceneError, ShapeKind};
-use std::collections::HashMap;
 use std::sync::Arc;
 use usray_ad::Real;
 use usray_geometry::shapes::cylinder::Cylinder;
@@ -96,22 +96,29 @@ impl<T: Real> SceneT<T> {
 }
 
 impl Scene {
-    /// Build the scene's numeric state in `T`. `seed(path, value)` turns each
+    /// Build the scene's numeric state in `T`. `seed(key, value)` turns a
     /// parameter into a `T`: return `T::from_f64(value)` for a constant, or an AD
-    /// variable for a parameter to differentiate:
+    /// variable for a parameter to differentiate. `seed` is called for each
+    /// parameter the tracer reads, once per read (so it must give the same `T`
+    /// for the same key and value):
     ///
     /// ```
     /// # let text = include_str!("../../../../scenes/cylinder.toml");
     /// # let scene = usray_transport::Scene::from_toml_str(text, "cylinder.toml", ".").unwrap();
     /// use usray_ad::{Dual, Real};
+    /// use usray_transport::{Field, ParamKey};
+    /// let radius = ParamKey::object("cylinder", Field::Radius);
     /// let st = scene
-    ///     .lift::<Dual<1>>(|path, v| {
-    ///         if path == "objects.cylinder.radius_m" { Dual::variable(v, 0) } else { Dual::from_f64(v) }
+    ///     .lift::<Dual<1>>(|key, v| {
+    ///         if *key == radius { Dual::variable(v, 0) } else { Dual::from_f64(v) }
     ///     })
     ///     .unwrap();
     /// assert_eq!(st.objects.len(), 1);
     /// ```
-    pub fn lift<T: Real>(&self, seed: impl FnMut(&str, f64) -> T) -> Result<SceneT<T>, SceneError> {
+    pub fn lift<T: Real>(
+        &self,
+        seed: impl Fn(&ParamKey, f64) -> T,
+    ) -> Result<SceneT<T>, SceneError> {
         self.lift_with(None, seed)
     }
 
@@ -124,10 +131,8 @@ impl Scene {
             out.push(match o.shape {
                 ShapeKind::Mesh => {
                     let mesh = load_mesh(self, o)?;
-                    let tf = mesh_transform::<f64>(o, &|leaf| {
-                        self.get(&format!("objects.{}.{leaf}", o.name))
-                            .unwrap_or(0.0)
-                    });
+                    let tf =
+                        mesh_transform::<f64>(o, &|field, c| self.value(&object_key(o, field, c)));
                     Some(MeshInstance::new(mesh, tf).map_err(|e| {
                         SceneError::new(&self.source, format!("objects.{}", o.name), e.to_string())
                     })?)
@@ -138,63 +143,65 @@ impl Scene {
         Ok(out)
     }
 
+    /// The value of `key`, 0 when the scene lacks it (the lift reads only
+    /// parameters it has checked are present).
+    fn value(&self, key: &ParamKey) -> f64 {
+        self.slot(key).copied().unwrap_or(0.0)
+    }
+
     /// [`Scene::lift`] reusing meshes placed by [`Scene::mesh_instances`] (no file
     /// read, no BVH build: cheap enough to lift per path in reverse mode). The
     /// parameters' values must be the ones the instances were built with.
     pub fn lift_with<T: Real>(
         &self,
         meshes: Option<&[Option<MeshInstance<f64>>]>,
-        mut seed: impl FnMut(&str, f64) -> T,
+        seed: impl Fn(&ParamKey, f64) -> T,
     ) -> Result<SceneT<T>, SceneError> {
-        let mut vals: HashMap<String, T> = HashMap::new();
-        self.clone().visit_params_mut(&mut |p, v| {
-            vals.insert(p.to_string(), seed(p, *v));
-        });
-        let get = |p: &str| -> T {
-            // Every path read below is visited above (same scene), so this is total.
-            vals.get(p).copied().unwrap_or_else(|| T::from_f64(0.0))
-        };
-        let material = |prefix: &str, rough: bool| MaterialT {
-            sound_speed: get(&format!("{prefix}.sound_speed_m_s")),
-            impedance: get(&format!("{prefix}.impedance_mrayl")),
-            roughness: if rough {
-                get(&format!("{prefix}.roughness"))
-            } else {
-                T::zero()
-            },
-            attenuation_db_cm_mhz: get(&format!("{prefix}.attenuation_db_cm_mhz")),
-            scatterer_density_per_mm3: if rough {
-                get(&format!("{prefix}.scatterer_density_per_mm3"))
-            } else {
-                T::zero()
-            },
-            scatterer_strength: if rough {
-                get(&format!("{prefix}.scatterer_strength"))
-            } else {
-                T::zero()
-            },
+        let get = |key: ParamKey| -> T { seed(&key, self.value(&key)) };
+        let material = |key: &dyn Fn(Field) -> ParamKey, rough: bool| {
+            let opt = |field| if rough { get(key(field)) } else { T::zero() };
+            MaterialT {
+                sound_speed: get(key(Field::SoundSpeed)),
+                impedance: get(key(Field::Impedance)),
+                roughness: opt(Field::Roughness),
+                attenuation_db_cm_mhz: get(key(Field::Attenuation)),
+                scatterer_density_per_mm3: opt(Field::ScattererDensity),
+                scatterer_strength: opt(Field::ScattererStrength),
+            }
         };
         let deg = T::from_f64(core::f64::consts::PI / 180.0);
         let mut geometry = Geometry::new();
         let mut objects = Vec::new();
         for (oi, o) in self.objects.iter().enumerate() {
-            let k = |leaf: &str| get(&format!("objects.{}.{leaf}", o.name));
-            let center = Vec3::new(k("center_m.0"), k("center_m.1"), k("center_m.2"));
+            let k = |field, c| get(object_key(o, field, c));
+            let center = Vec3::new(
+                k(Field::Center, Some(0)),
+                k(Field::Center, Some(1)),
+                k(Field::Center, Some(2)),
+            );
             let gerr = |e: &dyn std::fmt::Display| {
                 SceneError::new(&self.source, format!("objects.{}", o.name), e.to_string())
             };
             let added = match o.shape {
                 ShapeKind::Cylinder => match o.thickness_m {
-                    Some(_) => {
-                        geometry.add(HollowCylinder::new(center, k("radius_m"), k("thickness_m")))
-                    }
-                    None => geometry.add(Cylinder::new(center, k("radius_m"))),
+                    Some(_) => geometry.add(HollowCylinder::new(
+                        center,
+                        k(Field::Radius, None),
+                        k(Field::Thickness, None),
+                    )),
+                    None => geometry.add(Cylinder::new(center, k(Field::Radius, None))),
                 },
-                ShapeKind::Sphere => geometry.add(Sphere::new(center, k("radius_m"))),
-                ShapeKind::Slab => geometry.add(Slab::new(k("z_top_m"), k("z_bottom_m"))),
+                ShapeKind::Sphere => geometry.add(Sphere::new(center, k(Field::Radius, None))),
+                ShapeKind::Slab => {
+                    geometry.add(Slab::new(k(Field::ZTop, None), k(Field::ZBottom, None)))
+                }
                 ShapeKind::Plane => {
                     let n = match o.normal {
-                        Some(_) => Vec3::new(k("normal.0"), k("normal.1"), k("normal.2")),
+                        Some(_) => Vec3::new(
+                            k(Field::Normal, Some(0)),
+                            k(Field::Normal, Some(1)),
+                            k(Field::Normal, Some(2)),
+                        ),
                         None => Vec3::from_f64s([0.0, 0.0, -1.0]),
                     };
                     geometry.add(HalfSpace::new(center, n.normalize()))
@@ -210,31 +217,32 @@ impl Scene {
             };
             added.map_err(|e| gerr(&e))?;
             objects.push(ObjectT {
-                material: material(&format!("materials.{}", o.material), true),
+                material: material(&|field| ParamKey::material(&o.material, field), true),
             });
         }
-        let (center_frequency, cycles) = (get("probe.center_frequency_hz"), get("probe.cycles"));
+        let probe = |field| get(ParamKey::probe(field));
+        let (center_frequency, cycles) = (probe(Field::CenterFrequency), probe(Field::Cycles));
         let array = self.array_geometry_t(get);
         Ok(SceneT {
-            medium: material("medium", false),
+            medium: material(&ParamKey::medium, false),
             objects,
             geometry,
             n_elements: self.probe.n_elements,
             array,
             elements: array.elements(),
-            elevation: get("probe.elevation_m"),
+            elevation: probe(Field::Elevation),
             center_frequency,
             cycles,
             pulse_bandwidth: usray_signal::pulse::pulse_bandwidth_hz(center_frequency, cycles),
             max_shift: crate::downshift::max_shift(center_frequency.value(), cycles.value()),
-            main_lobe: get("probe.main_lobe_deg") * deg,
-            cutoff: get("probe.cutoff_deg") * deg,
+            main_lobe: probe(Field::MainLobe) * deg,
+            cutoff: probe(Field::Cutoff) * deg,
             transmits: self.transmit_waves_t(get),
             fs: self.acquisition.sampling_frequency_hz,
-            depth_gain_db_per_cm: get("acquisition.depth_gain_db_per_cm"),
+            depth_gain_db_per_cm: get(ParamKey::acquisition(Field::DepthGain)),
             imaging_sound_speed: match self.imaging.sound_speed_m_s {
-                Some(_) => get("imaging.sound_speed_m_s"),
-                None => get("medium.sound_speed_m_s"),
+                Some(_) => get(ParamKey::imaging(Field::SoundSpeed)),
+                None => get(ParamKey::medium(Field::SoundSpeed)),
             },
             emission: self.acquisition.emission,
         })
@@ -245,26 +253,29 @@ impl Scene {
         self.lift(|_, v| T::from_f64(v))
     }
 
-    /// [`Scene::lift`] into a forward dual with the named parameters as its `N`
-    /// partials, in the order given; an unknown path or `params.len() != N` is an
-    /// error naming the path.
+    /// [`Scene::lift`] into a forward dual with the given parameters as its `N`
+    /// partials, in the order given; a parameter the scene lacks or
+    /// `params.len() != N` is an error naming the path.
     ///
     /// ```
     /// # let text = include_str!("../../../../scenes/cylinder.toml");
     /// # let scene = usray_transport::Scene::from_toml_str(text, "cylinder.toml", ".").unwrap();
+    /// use usray_transport::{Field, ParamKey};
+    /// let radius = ParamKey::object("cylinder", Field::Radius);
     /// let st = scene
-    ///     .lift_dual::<2>(&["objects.cylinder.radius_m", "materials.target.roughness"])
+    ///     .lift_dual::<2>(&[radius, ParamKey::material("target", Field::Roughness)])
     ///     .unwrap();
-    /// assert!(scene.lift_dual::<1>(&["objects.cylinder.nope"]).is_err());
+    /// assert!(scene.lift_dual::<1>(&[ParamKey::object("nope", Field::Radius)]).is_err());
     /// ```
     pub fn lift_dual<const N: usize>(
         &self,
-        params: &[&str],
+        params: &[ParamKey],
     ) -> Result<SceneT<usray_ad::Dual<N>>, SceneError> {
         if params.len() != N {
+            let names: Vec<String> = params.iter().map(ToString::to_string).collect();
             return Err(SceneError::new(
                 &self.source,
-                params.join(","),
+                names.join(","),
                 format!(
                     "expected exactly {N} parameter paths, found {}",
                     params.len()
@@ -274,31 +285,45 @@ impl Scene {
         for p in params {
             self.get(p)?;
         }
-        self.lift(|path, v| match params.iter().position(|q| *q == path) {
+        self.lift(|key, v| match params.iter().position(|q| q == key) {
             Some(i) => usray_ad::Dual::variable(v, i),
             None => usray_ad::Dual::from_f64(v),
         })
     }
 }
 
+/// The key of `field` (component `c`) of object `o`.
+fn object_key(o: &super::Object, field: Field, c: Option<usize>) -> ParamKey {
+    ParamKey {
+        component: c,
+        ..ParamKey::object(&o.name, field)
+    }
+}
+
 /// The object → world transform of a mesh object: `center_m`, `rotation_deg`
-/// (Euler, degrees), uniform `scale`; `k(leaf)` reads the object's parameters.
+/// (Euler, degrees), uniform `scale`; `k(field, component)` reads the object's
+/// parameters.
 fn mesh_transform<T: Real>(
     o: &super::Object,
-    k: &dyn Fn(&str) -> T,
+    k: &dyn Fn(Field, Option<usize>) -> T,
 ) -> usray_geometry::Transform<T> {
     let deg = T::from_f64(core::f64::consts::PI / 180.0);
-    let center = Vec3::new(k("center_m.0"), k("center_m.1"), k("center_m.2"));
+    let c = |field, i| k(field, Some(i));
+    let center = Vec3::new(
+        c(Field::Center, 0),
+        c(Field::Center, 1),
+        c(Field::Center, 2),
+    );
     let rot = match o.rotation_deg {
         Some(_) => Vec3::new(
-            k("rotation_deg.0") * deg,
-            k("rotation_deg.1") * deg,
-            k("rotation_deg.2") * deg,
+            c(Field::Rotation, 0) * deg,
+            c(Field::Rotation, 1) * deg,
+            c(Field::Rotation, 2) * deg,
         ),
         None => Vec3::zero(),
     };
     let s = match o.scale {
-        Some(_) => k("scale"),
+        Some(_) => k(Field::Scale, None),
         None => T::one(),
     };
     usray_geometry::Transform::from_euler(center, rot, Vec3::new(s, s, s))

@@ -3,16 +3,19 @@
 //! A [`Scene`] holds the parsed file (every number as `f64`) plus the directory
 //! the file lives in (mesh paths are relative to it). It is the single source of
 //! truth for parameter values: [`Scene::params`], [`Scene::get`] and
-//! [`Scene::set`] address every continuous scalar by its dotted path (see
-//! [`params`]), and [`Scene::lift`] builds the numeric state the tracer uses in
+//! [`Scene::set`] address every continuous scalar by its [`ParamKey`] (printed
+//! and parsed as its dotted path: [`key`], [`params`]), and [`Scene::lift`] builds the numeric state the tracer uses in
 //! any `T: Real`, with chosen parameters seeded as AD variables.
 
 mod acquisition;
 mod imaging;
+pub mod key;
 mod lift;
 pub mod params;
 mod schema;
+mod slots;
 
+pub use key::{Field, ImagingRole, Owner, ParamGroup, ParamKey};
 pub use lift::{MaterialT, ObjectT, SceneT};
 pub use schema::{
     limits, Acquisition, Emission, Imaging, Material, Medium, Object, Probe, Sampler, ShapeKind,
@@ -90,7 +93,7 @@ impl Scene {
     ///
     /// ```no_run
     /// let scene = usray_transport::Scene::load("scenes/cylinder.toml").unwrap();
-    /// assert!(scene.get("objects.cylinder.radius_m").is_ok());
+    /// assert!(scene.key("objects.cylinder.radius_m").is_ok());
     /// ```
     pub fn load(path: impl AsRef<Path>) -> Result<Self, SceneError> {
         let path = path.as_ref();

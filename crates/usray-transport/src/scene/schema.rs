@@ -328,11 +328,11 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     let f = s.source.as_str();
     let err = |k: &str, m: &str| Err(SceneError::new(f, k, m));
     // 1. Every continuous scalar is finite.
-    for (path, v) in s.params() {
+    for (key, v) in s.params() {
         if !v.is_finite() {
             return Err(SceneError::new(
                 f,
-                path,
+                key.to_string(),
                 format!("expected a finite number, found {v}"),
             ));
         }

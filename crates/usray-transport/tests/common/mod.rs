@@ -3,6 +3,17 @@
 #![allow(dead_code)]
 
 use usray_signal::ChannelData;
+use usray_transport::ParamKey;
+
+/// The key of a dotted parameter path (the tests name parameters by path).
+pub fn key(path: &str) -> ParamKey {
+    path.parse().unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The keys of dotted parameter paths.
+pub fn keys(paths: &[&str]) -> Vec<ParamKey> {
+    paths.iter().map(|p| key(p)).collect()
+}
 
 /// A scene header (medium, probe, acquisition) for tests.
 pub fn header(n_elements: usize, width: f64, angles: &str, rays: usize, bounces: u32) -> String {
@@ -130,15 +141,16 @@ pub fn ad_and_fd(scene: &usray_transport::Scene, params: &[(&str, f64)]) -> Vec<
         d.samples.iter().zip(&w).map(|(p, w)| p * w).sum()
     };
     let names: Vec<&str> = params.iter().map(|p| p.0).collect();
-    let g = channel_gradient(scene, &names, &w, &opts).unwrap();
+    let g = channel_gradient(scene, &keys(&names), &w, &opts).unwrap();
     params
         .iter()
         .zip(&g)
         .map(|(&(p, h), &ad)| {
-            let v = scene.get(p).unwrap();
+            let k = key(p);
+            let v = scene.get(&k).unwrap();
             let (mut sp, mut sm) = (scene.clone(), scene.clone());
-            sp.set(p, v + h).unwrap();
-            sm.set(p, v - h).unwrap();
+            sp.set(&k, v + h).unwrap();
+            sm.set(&k, v - h).unwrap();
             let fd = (loss(&sp) - loss(&sm)) / (2.0 * h);
             let r = (ad - fd).abs() / fd.abs();
             eprintln!("{p}: AD {ad:.9e}, FD {fd:.9e}, relative difference {r:.2e}");
