@@ -40,6 +40,7 @@ pub(super) struct Branch<T> {
 impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
     /// Trace `branch` to its next interaction (steps 2–5 of the `integrator`
     /// module docs) and push its continuations onto `pending`.
+    #[inline]
     pub(super) fn trace_branch(&mut self, branch: Branch<T>, pending: &mut Vec<Branch<T>>) {
         let st = self.st;
         let settings = self.settings;
