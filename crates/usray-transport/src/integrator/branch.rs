@@ -18,7 +18,8 @@ pub(super) struct Branch<T> {
     pub(super) dir: Vec3<T>,
     /// Path amplitude so far.
     pub(super) w: T,
-    /// Attenuation exponent so far, Np/Hz ([`attenuation_exponent`]).
+    /// Attenuation exponent so far, Np/Hz
+    /// ([`attenuation_exponent`](crate::effects::attenuation_exponent)).
     pub(super) beta: T,
     /// Time stamp at `origin`, s.
     pub(super) time: T,
