@@ -18,6 +18,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     /// escapes). Outside every object, it deposits on the element it lands on
     /// if its interactions so far were all smooth or its last one was rough
     /// (the `integrator` module docs, "Double counting and MIS").
+    #[inline]
     pub(super) fn arrive(&mut self, b: Branch<T>, medium: &MaterialT<T>, r: &Ray<T>, t_array: T) {
         let st = self.st;
         let settings = self.settings;

@@ -18,7 +18,8 @@ pub(super) struct Branch<T> {
     pub(super) dir: Vec3<T>,
     /// Path amplitude so far.
     pub(super) w: T,
-    /// Attenuation exponent so far, Np/Hz ([`attenuation_exponent`]).
+    /// Attenuation exponent so far, Np/Hz
+    /// ([`attenuation_exponent`](crate::effects::attenuation_exponent)).
     pub(super) beta: T,
     /// Time stamp at `origin`, s.
     pub(super) time: T,
@@ -40,6 +41,7 @@ pub(super) struct Branch<T> {
 impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
     /// Trace `branch` to its next interaction (steps 2–5 of the `integrator`
     /// module docs) and push its continuations onto `pending`.
+    #[inline]
     pub(super) fn trace_branch(&mut self, branch: Branch<T>, pending: &mut Vec<Branch<T>>) {
         let st = self.st;
         let settings = self.settings;

@@ -15,6 +15,7 @@ use usray_signal::transmit::TransmitWave;
 /// `el`, ray index `ray`) in the element's medium stack `start_stack`, or
 /// `None` when its sampled direction has no density (a cosine sample in the
 /// face's plane).
+#[inline]
 pub(super) fn emit<T: Real>(
     st: &SceneT<T>,
     settings: &TraceSettings,

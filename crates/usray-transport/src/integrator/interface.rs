@@ -15,6 +15,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     /// Step 5: branch `b`, arrived at `hit` through `medium` (its amplitude,
     /// attenuation exponent and time taken at the hit), meets the interface
     /// there; its continuations are pushed onto `pending`.
+    #[inline]
     pub(super) fn interact(
         &mut self,
         b: Branch<T>,

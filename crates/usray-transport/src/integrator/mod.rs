@@ -41,7 +41,10 @@
 //! receiver connection, with its MIS weight). `context` holds the state the
 //! steps share (casting a ray, making a deposit), `horizon` the time window
 //! that lets a path skip work that could only deposit after it, and `settings`
-//! the fixed settings and the receivers of an interaction.
+//! the fixed settings and the receivers of an interaction. The steps called
+//! once per path or branch are `#[inline]`, so that they are compiled into the
+//! path loop as they were when the tracer was one module (the compiler places
+//! each module's functions in their own codegen unit).
 //!
 //! **Double counting and MIS.** A path deposits by a direct array hit while every
 //! interaction so far was a delta (smooth) lobe (weight 1). After a rough vertex,

@@ -18,6 +18,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     /// Volume scatterers along a segment of length `len` from `origin` along `dir`
     /// in `medium` (inside object `obj`), path amplitude `w`, attenuation
     /// exponent `beta` and time `tau` at origin.
+    #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn volume(
         &mut self,
