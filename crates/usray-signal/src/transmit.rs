@@ -148,6 +148,26 @@ impl TransmitWave<f64> {
         }
     }
 
+    /// The inverse of [`TransmitWave::from_meta`]: the transmit's `kind` and
+    /// `angle_rad` (0 for a circular wave), its point written into `extra`
+    /// under [`VIRTUAL_SOURCE_KEY`] or [`FOCUS_KEY`].
+    pub fn to_meta_fields(
+        &self,
+        extra: &mut serde_json::Map<String, serde_json::Value>,
+    ) -> (&'static str, f64) {
+        match *self {
+            TransmitWave::PlaneWave { angle_rad } => ("plane_wave", angle_rad),
+            TransmitWave::Diverging { source_m } => {
+                extra.insert(VIRTUAL_SOURCE_KEY.into(), source_m.to_vec().into());
+                ("diverging", 0.0)
+            }
+            TransmitWave::Focused { focus_m } => {
+                extra.insert(FOCUS_KEY.into(), focus_m.to_vec().into());
+                ("focused", 0.0)
+            }
+        }
+    }
+
     /// Whether this is a plane wave (the beamformer's fast path needs only those).
     pub fn is_plane(&self) -> bool {
         matches!(self, TransmitWave::PlaneWave { .. })

@@ -19,7 +19,7 @@ use crate::channels::{
 };
 use crate::error::{Result, SignalError};
 use crate::mat::{MatFile, MatValue};
-use crate::transmit::{TransmitWave, FOCUS_KEY, VIRTUAL_SOURCE_KEY};
+use crate::transmit::TransmitWave;
 
 /// Imports the acquisition in `vars`: plane waves, or the diverging and focused
 /// waves its transmit delays describe ([`super::delays`]), on a flat or convex
@@ -255,17 +255,7 @@ fn from_variables(
                     if has_frames {
                         extra.insert(FRAME_KEY.into(), f.into());
                     }
-                    let (kind, angle_rad) = match *wave {
-                        TransmitWave::PlaneWave { angle_rad } => ("plane_wave", angle_rad),
-                        TransmitWave::Diverging { source_m } => {
-                            extra.insert(VIRTUAL_SOURCE_KEY.into(), source_m.to_vec().into());
-                            ("diverging", 0.0)
-                        }
-                        TransmitWave::Focused { focus_m } => {
-                            extra.insert(FOCUS_KEY.into(), focus_m.to_vec().into());
-                            ("focused", 0.0)
-                        }
-                    };
+                    let (kind, angle_rad) = wave.to_meta_fields(&mut extra);
                     let t0_k = t0 - cross;
                     TransmitMeta {
                         kind: kind.into(),

@@ -16,7 +16,7 @@ use crate::channels::{
 };
 use crate::h5::{element_count, read_f64, string_attr, R};
 use crate::import::{flat_kind, kind_name, ImportOptions};
-use crate::transmit::{TransmitWave, FOCUS_KEY, VIRTUAL_SOURCE_KEY};
+use crate::transmit::TransmitWave;
 
 pub(super) fn read_channel_data(path: &Path, options: &ImportOptions) -> R<ChannelData> {
     let file =
@@ -94,17 +94,7 @@ pub(super) fn read_channel_data(path: &Path, options: &ImportOptions) -> R<Chann
                 if tagged {
                     extra.insert(FRAME_KEY.into(), frame.into());
                 }
-                let (kind, angle_rad) = match wave {
-                    TransmitWave::PlaneWave { angle_rad } => ("plane_wave", angle_rad),
-                    TransmitWave::Diverging { source_m } => {
-                        extra.insert(VIRTUAL_SOURCE_KEY.into(), source_m.to_vec().into());
-                        ("diverging", 0.0)
-                    }
-                    TransmitWave::Focused { focus_m } => {
-                        extra.insert(FOCUS_KEY.into(), focus_m.to_vec().into());
-                        ("focused", 0.0)
-                    }
-                };
+                let (kind, angle_rad) = wave.to_meta_fields(&mut extra);
                 TransmitMeta {
                     kind: kind.into(),
                     angle_rad,
