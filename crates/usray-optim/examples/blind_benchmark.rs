@@ -33,7 +33,7 @@
 use usray_optim::blind::{
     draw, measured_frame, measured_image, verdict_is_false_effect, verdict_is_right, BlindOptions,
 };
-use usray_optim::{diagnose, DiagnoseOptions};
+use usray_optim::{diagnose, DiagnoseOptions, FreeParam};
 use usray_transport::scene::Sampler;
 use usray_transport::{RenderOptions, Scene};
 
@@ -108,6 +108,14 @@ fn main() {
     if args.len() > 5 {
         bopts.seed = parse(5) as u64;
     }
+    let free_params = free_params
+        .iter()
+        .map(|p| FreeParam::parse(p, &base))
+        .collect::<Result<Vec<_>, _>>()
+        .unwrap_or_else(|e| {
+            eprintln!("--params: {e}");
+            std::process::exit(2)
+        });
     let dopts = DiagnoseOptions {
         free_params,
         calibration_iters: iters,

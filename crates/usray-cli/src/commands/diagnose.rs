@@ -73,7 +73,11 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         (usray_optim::load_reference(measured, &scene)?, held)
     };
     let opts = DiagnoseOptions {
-        free_params: args.params.clone(),
+        free_params: args
+            .params
+            .iter()
+            .map(|p| usray_optim::FreeParam::parse(p, &scene))
+            .collect::<std::result::Result<Vec<_>, _>>()?,
         calibration_iters: args.iters,
         refit_iters: args.iters,
         confirm_top: args.confirm,

@@ -68,31 +68,70 @@ const MAX_RAY_FACTOR: f64 = 8.0;
 /// The range is kept on the scene's side of the medium's impedance.
 const IMPEDANCE_MARGIN: f64 = 0.03;
 
-/// The calibration's parameter spec for `text` (`PATH` or `PATH=MIN:MAX`) at
-/// `scene`'s value: the default range ([`crate::default_range`]), except that
-/// an object material's impedance keeps to the scene's side of the medium's
+/// A base parameter the calibration fits: its key and, when the user gave one,
+/// its range (`--params PATH=MIN:MAX`); without one the calibration's default
+/// ([`calibration_spec`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FreeParam {
+    /// The parameter.
+    pub key: ParamKey,
+    /// `[min, max]` as given, kept as is.
+    pub range: Option<(f64, f64)>,
+}
+
+impl FreeParam {
+    /// A parameter with the calibration's default range.
+    pub fn new(key: ParamKey) -> Self {
+        Self { key, range: None }
+    }
+
+    /// Parses `PATH` or `PATH=MIN:MAX` against `scene` (the CLI's `--params`).
+    ///
+    /// # Errors
+    /// A path the scene lacks, or a malformed range.
+    pub fn parse(text: &str, scene: &Scene) -> Result<Self, OptimError> {
+        let spec = ParamSpec::parse(text, scene).map_err(|e| match e {
+            ParamSpecError::Unknown { source, .. } => OptimError::Scene(source),
+            e => OptimError::Param(e),
+        })?;
+        let range = text.contains('=').then_some((spec.min, spec.max));
+        Ok(Self {
+            key: spec.key,
+            range,
+        })
+    }
+}
+
+/// The calibration's parameter spec for `free` at `scene`'s value: the range
+/// given, else the default range ([`crate::default_range`]), except that an
+/// object material's impedance keeps to the scene's side of the medium's
 /// impedance, at least 3% from it (a target of nearly the medium's impedance
-/// vanishes from the image). An explicit range is kept as given.
+/// vanishes from the image).
 ///
 /// ```
-/// use usray_optim::calibration_spec;
+/// use usray_optim::{calibration_spec, FreeParam};
 /// let scene = usray_transport::Scene::load("../../scenes/cylinder.toml").unwrap();
 /// let z0 = scene.medium.impedance_mrayl;
-/// let s = calibration_spec(&scene, "materials.target.impedance_mrayl").unwrap();
+/// let free = FreeParam::parse("materials.target.impedance_mrayl", &scene).unwrap();
+/// let s = calibration_spec(&scene, &free).unwrap();
 /// assert!(s.min >= 1.03 * z0 - 1e-12 && s.max > scene.get(&s.key).unwrap());
 /// ```
 ///
 /// # Errors
-/// A path the scene lacks, or a malformed range.
-pub fn calibration_spec(scene: &Scene, text: &str) -> Result<ParamSpec, OptimError> {
-    let mut spec = ParamSpec::parse(text, scene).map_err(|e| match e {
-        ParamSpecError::Unknown { source, .. } => OptimError::Scene(source),
-        e => OptimError::Param(e),
-    })?;
-    let value = scene.get(&spec.key)?;
+/// A parameter the scene lacks.
+pub fn calibration_spec(scene: &Scene, free: &FreeParam) -> Result<ParamSpec, OptimError> {
+    let value = scene.get(&free.key)?;
+    if let Some((min, max)) = free.range {
+        return Ok(ParamSpec {
+            key: free.key.clone(),
+            min,
+            max,
+        });
+    }
+    let mut spec = ParamSpec::around(free.key.clone(), value);
     let is_material_impedance =
         matches!(spec.key.owner, Owner::Material(_)) && spec.key.field == Field::Impedance;
-    if is_material_impedance && !text.contains('=') {
+    if is_material_impedance {
         let z0 = scene.medium.impedance_mrayl;
         if value > z0 {
             spec.min = spec.min.max((1.0 + IMPEDANCE_MARGIN) * z0).min(value);

@@ -127,7 +127,9 @@ mod run;
 mod screening;
 mod verdict;
 
-pub use calibration::{calibration_spec, default_free_params, diagnosis_smoothing, LossSetup};
+pub use calibration::{
+    calibration_spec, default_free_params, diagnosis_smoothing, FreeParam, LossSetup,
+};
 pub(crate) use catalogue::SCATTERER_DENSITY_PER_MM3;
 pub use catalogue::{catalogue, Candidate};
 pub use held_out::held_out_seed;

@@ -10,9 +10,9 @@ use usray_transport::RenderOptions;
 /// Settings of a diagnosis.
 #[derive(Clone, Debug)]
 pub struct DiagnoseOptions {
-    /// Free parameters of the base model (`PATH` or `PATH=MIN:MAX`); empty =
-    /// [`super::default_free_params`].
-    pub free_params: Vec<String>,
+    /// Free parameters of the base model ([`super::FreeParam::parse`] reads
+    /// `PATH` or `PATH=MIN:MAX`); empty = [`super::default_free_params`].
+    pub free_params: Vec<super::calibration::FreeParam>,
     /// Adam iterations of the calibration (default 40).
     pub calibration_iters: usize,
     /// Adam iterations of each confirming refit (default 40).

@@ -1,7 +1,9 @@
 //! A diagnosis's steps in order ([`diagnose`]), and the compound-gap rounds
 //! that switch a named effect on and diagnose again ([`diagnose_compound`]).
 
-use super::calibration::{calibrate_within_budget, calibration_spec, default_free_params};
+use super::calibration::{
+    calibrate_within_budget, calibration_spec, default_free_params, FreeParam,
+};
 use super::catalogue::catalogue;
 use super::options::DiagnoseOptions;
 use super::parameter_candidates::parameter_candidates;
@@ -36,10 +38,10 @@ pub fn diagnose(
     let held_data = opts.held_out_data(measured)?;
     let started = Instant::now();
     let mut timings = Timings::default();
-    let free: Vec<String> = if opts.free_params.is_empty() {
+    let free: Vec<FreeParam> = if opts.free_params.is_empty() {
         default_free_params(scene)
-            .iter()
-            .map(ToString::to_string)
+            .into_iter()
+            .map(FreeParam::new)
             .collect()
     } else {
         opts.free_params.clone()
@@ -228,8 +230,18 @@ pub fn diagnose_compound(
         let Some(named) = last.effects.iter().find(|e| &e.path == path) else {
             break;
         };
-        let mut free: Vec<String> = last.calibrated.params.keys().cloned().collect();
-        free.push(format!("{path}={}:{}", named.range[0], named.range[1]));
+        // The calibrated parameters (in the report's order) with their default
+        // ranges, and the named effect's parameter with its refit's range.
+        let mut free = last
+            .calibrated
+            .params
+            .keys()
+            .map(|p| Ok(FreeParam::new(next_scene.key(p)?)))
+            .collect::<Result<Vec<_>, OptimError>>()?;
+        free.push(FreeParam {
+            key: next_scene.key(path)?,
+            range: Some((named.range[0], named.range[1])),
+        });
         let elapsed = started.elapsed().as_secs_f64();
         // Whether to go on and the budget left, decided on the wall clock and so
         // kept for a resumed run.
