@@ -35,6 +35,20 @@ pub(super) struct Waves {
     pub fit: Option<Value>,
 }
 
+impl Waves {
+    /// Plane waves at `angles` (rad), given, not fitted: no fit record.
+    fn plane(angles: &[f64], crossing_s: Vec<f64>) -> Self {
+        Self {
+            waves: angles
+                .iter()
+                .map(|&angle_rad| TransmitWave::PlaneWave { angle_rad })
+                .collect(),
+            crossing_s,
+            fit: None,
+        }
+    }
+}
+
 /// The waves of `n_tx` transmits fired by `array` (module documentation).
 /// `angles` are the file's or the user's (`None` when neither gives them; then
 /// the delays must).
@@ -75,14 +89,7 @@ pub(super) fn transmit_waves(
         if array.kind.is_flat() && plane_only {
             let crossing_s =
                 plane_centre_crossing_times(delays, angles, n_el, array.pitch_m, c, fc, rec)?;
-            return Ok(Waves {
-                waves: angles
-                    .iter()
-                    .map(|&angle_rad| TransmitWave::PlaneWave { angle_rad })
-                    .collect(),
-                crossing_s,
-                fit: None,
-            });
+            return Ok(Waves::plane(angles, crossing_s));
         }
     }
     let Some((name, rows)) = rows else {
@@ -107,14 +114,7 @@ pub(super) fn transmit_waves(
                     .fold(f64::INFINITY, f64::min)
             })
             .collect();
-        return Ok(Waves {
-            waves: angles
-                .iter()
-                .map(|&angle_rad| TransmitWave::PlaneWave { angle_rad })
-                .collect(),
-            crossing_s,
-            fit: None,
-        });
+        return Ok(Waves::plane(angles, crossing_s));
     };
     fitted_waves(name, &rows, angles, array, c, fc, fs, rec)
 }
