@@ -16,6 +16,10 @@ pub(crate) const SCATTERER_DENSITY_PER_MM3: f64 = 5.0;
 /// attenuation `2αf_c` of 1 dB/(cm·MHz) at 5 MHz.
 pub(crate) const DEPTH_GAIN_MAX_DB_PER_CM: f64 = 10.0;
 
+/// Onsets of the `pulse_length` candidate, in multiples of the scene's cycles
+/// (the null first; its range is 0.5–3 times).
+pub(crate) const PULSE_LENGTH_ONSETS: [f64; 4] = [1.0, 0.7, 1.4, 2.0];
+
 /// Learning rate of an effect's strength in a confirming refit, in fractions of
 /// its range per step (the calibrated parameters keep their groups' rates).
 pub(crate) const EFFECT_LEARNING_RATE: f64 = 0.05;
@@ -228,12 +232,20 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         });
     }
     // Pulse length (bandwidth): the transmitted pulse's envelope FWHM in cycles
-    // differs from the scene's; null = the scene's value, either way.
+    // differs from the scene's; null = the scene's value, either way. A longer
+    // pulse widens every echo by `Δcycles/f_c`; once that passes about half
+    // the echo's own width, an echo of the model no longer overlaps the
+    // measured one where it matters, the loss is flat at the null and its
+    // gradient there says nothing (a 5-cycle burst against a 3-cycle model
+    // scored 0.004 at the null and was never refitted, docs/diagnosis.md).
+    // So it is scored from the best of onsets across its range — 0.7, 1.4 and
+    // 2 times the scene's as well as the null, each within the basin of its
+    // neighbours — like the sound speed.
     let cycles = scene.probe.cycles;
     out.push(Candidate {
         effect: "pulse_length".into(),
         key: ParamKey::probe(Field::Cycles),
-        onsets: vec![cycles],
+        onsets: PULSE_LENGTH_ONSETS.iter().map(|f| f * cycles).collect(),
         range: (0.5 * cycles, 3.0 * cycles),
         two_sided: true,
         null: Some(cycles),

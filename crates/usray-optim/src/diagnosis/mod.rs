@@ -107,6 +107,7 @@
 //! | `screening` | step 3: one score per candidate ([`score_candidate`]) |
 //! | `refits` | step 4: the null refit and the leading candidates' refits |
 //! | `held_out` | step 4's statistics: held-out seeds, losses, means and standard errors |
+//! | `spatial` | step 4's spatial standard error of an excess (blocks of the image) |
 //! | `noise_budget` | the simulation's noise against the gap ([`NoiseCheck`]) |
 //! | `verdict` | step 5 ([`name_effect`], [`unnamed_verdict`], [`VerdictRule`]) |
 //! | `results` | what a diagnosis found ([`Diagnosis`]) |
@@ -125,6 +126,7 @@ pub mod residual;
 mod results;
 mod run;
 mod screening;
+mod spatial;
 mod verdict;
 
 pub use calibration::{

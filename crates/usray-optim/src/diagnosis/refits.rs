@@ -8,6 +8,7 @@ use super::catalogue::Candidate;
 use super::held_out::{held_out, mean, mean_and_se, relative_differences};
 use super::options::DiagnoseOptions;
 use super::results::{EffectResult, NullRefit};
+use super::spatial::{block_losses, block_px, excess_spatial_std};
 use crate::fit::{fit_journaled, FitOptions};
 use crate::objective::Objective;
 use crate::params::ParamSpec;
@@ -26,6 +27,8 @@ pub(crate) const DETECTION_LIMIT_SPREADS: f64 = 3.0;
 /// A candidate's refit and its held-out evaluation (step 4).
 struct Refit {
     after_losses: Vec<f64>,
+    /// Each held-out seed's loss by block of the image (`spatial`).
+    after_blocks: Vec<Vec<f64>>,
     params: Vec<(String, f64)>,
     params_std: Vec<(String, Option<f64>)>,
     image_s: Vec<f64>,
@@ -112,6 +115,7 @@ fn refit_candidate(
     )?;
     Ok(Refit {
         after_losses: after.iter().map(|e| e.loss).collect(),
+        after_blocks: block_losses(&stage.setup, held_data, &after, block_px(&stage.scene)),
         params: obj
             .specs
             .iter()
@@ -139,6 +143,9 @@ pub(crate) struct Control {
     /// refit's, or the calibrated model's where the null refit ended worse
     /// (every refit restarts Adam's moments and may).
     pub baseline: Vec<f64>,
+    /// The baseline's losses by block of the image, one vector per held-out
+    /// seed (`spatial`).
+    pub baseline_blocks: Vec<Vec<f64>>,
 }
 
 /// The control: the base parameters alone, refitted from the calibrated point
@@ -180,11 +187,17 @@ pub(crate) fn null_refit(
         &null_losses,
         stage.held_loss,
     ));
-    let baseline = if shrink > 0.0 {
-        null_losses.clone()
+    let (baseline, baseline_evals) = if shrink > 0.0 {
+        (null_losses.clone(), &null_after)
     } else {
-        stage.held_losses.clone()
+        (stage.held_losses.clone(), &stage.held)
     };
+    let baseline_blocks = block_losses(
+        &stage.setup,
+        held_data,
+        baseline_evals,
+        block_px(&stage.scene),
+    );
     Ok(Control {
         null_refit: NullRefit {
             loss_after: mean(&null_losses),
@@ -198,6 +211,7 @@ pub(crate) fn null_refit(
                 .collect(),
         },
         baseline,
+        baseline_blocks,
     })
 }
 
@@ -226,6 +240,7 @@ pub(crate) fn refit_leading(
     stage: &Stage,
     specs: &[ParamSpec],
     baseline: &[f64],
+    baseline_blocks: &[Vec<f64>],
     measured: &[f64],
     held_data: &[f64],
     opts: &DiagnoseOptions,
@@ -266,6 +281,7 @@ pub(crate) fn refit_leading(
         e.shrink_std = shrink_std;
         e.excess = Some(excess);
         e.excess_std = excess_std;
+        e.excess_spatial_std = excess_spatial_std(baseline_blocks, &r.after_blocks, held_loss);
         e.gap_explained =
             (held_loss > noise_loss).then(|| (held_loss - after_loss) / (held_loss - noise_loss));
         e.held_out_losses = r.after_losses;

@@ -94,6 +94,7 @@ impl Report<'_> {
                         "gap_explained": named.and_then(|e| e.gap_explained),
                         "excess": named.and_then(|e| e.excess),
                         "excess_std": named.and_then(|e| e.excess_std),
+                        "excess_spatial_std": named.and_then(|e| e.excess_spatial_std),
                         "found": named.and_then(|e| e.params.get(&e.path)),
                         "noise_check": r.noise_check,
                         "loss_held_out": r.calibrated.loss_held_out,
@@ -277,7 +278,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     }
     residual_kinds(&mut r, &d.residual)?;
     writeln!(r, "\n## 3–4. Candidate effects\n")?;
-    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error; gap explained: the share of the gap above the noise level the refit removes; limit of detection: the smallest departure of the effect parameter from its null that these data resolve, {:.0} Monte Carlo spreads of the refitted value (a lower bound). An effect is named when its excess is at least {:.2} and {:.0} standard errors, and, where a real gap remains (held-out loss above {:.1} × the noise level), it explains at least {:.0}% of the gap.\n", d.held_out_seeds, d.null_refit.shrink, DETECTION_LIMIT_SPREADS, d.rule.min_excess, d.rule.min_excess_z, d.rule.noise_factor, 100.0 * d.rule.min_gap_explained)?;
+    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error over the held-out seeds and, in brackets, over blocks of the image three wavelengths wide (large when the gain lies in a few places and is paid for elsewhere); gap explained: the share of the gap above the noise level the refit removes; limit of detection: the smallest departure of the effect parameter from its null that these data resolve, {:.0} Monte Carlo spreads of the refitted value (a lower bound). An effect is named when its excess is at least {:.2} and {:.0} standard errors, and, where a real gap remains (held-out loss above {:.1} × the noise level), it explains at least {:.0}% of the gap.\n", d.held_out_seeds, d.null_refit.shrink, DETECTION_LIMIT_SPREADS, d.rule.min_excess, d.rule.min_excess_z, d.rule.noise_factor, 100.0 * d.rule.min_gap_explained)?;
     writeln!(
         r,
         "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | excess | gap explained | limit of detection | found |\n|---|---|---|---|---|---|---|---|---|---|---|"
@@ -315,7 +316,9 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 (Some(v), Some(se)) => format!("{v:+.3} ± {se:.3}"),
                 (Some(v), None) => format!("{v:+.3}"),
                 _ => "—".into(),
-            },
+            } + &e
+                .excess_spatial_std
+                .map_or(String::new(), |se| format!(" (± {se:.3} over the image)")),
             or_dash(e.gap_explained, |g| format!("{g:.2}")),
             match (e.detection_limit, e.null) {
                 (Some(l), Some(null)) if e.range[0] < null => format!("±{}", short(l)),

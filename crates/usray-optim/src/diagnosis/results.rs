@@ -86,6 +86,12 @@ pub struct EffectResult {
     /// Standard error of [`EffectResult::excess`] from its per-seed values
     /// (absent when not refitted or with one held-out seed).
     pub excess_std: Option<f64>,
+    /// Standard error of [`EffectResult::excess`] from its spread over blocks
+    /// of the image three wavelengths wide (`√B · sd` of the blocks' shares,
+    /// averaged over the seeds): large when the gain is carried by a few
+    /// places and paid for elsewhere, as where a candidate absorbs a structure
+    /// it does not hold (absent when not refitted).
+    pub excess_spatial_std: Option<f64>,
     /// Share of the gap above the noise level that the refit removes:
     /// `(loss_held_out − loss_after) / (loss_held_out − noise_loss)`; absent
     /// when not refitted or when the held-out loss is not above the noise level.
@@ -125,7 +131,7 @@ impl EffectResult {
     ///     path: "acquisition.depth_gain_db_per_cm".into(),
     ///     score: 0.2, onset: 0.0, range: [0.0, 10.0], null: Some(0.0), gradient: -1e-3,
     ///     loss_onset: 1e-2, loss_after: Some(7e-3), shrink: Some(0.3),
-    ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01),
+    ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01), excess_spatial_std: None,
     ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
     ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None,
     ///     failed: None,
@@ -157,7 +163,7 @@ impl EffectResult {
     ///     effect: "depth_gain".into(), path: path.clone(), score: 0.1, onset: 0.0,
     ///     range: [0.0, 10.0], null: Some(0.0), gradient: -1e-3, loss_onset: 1e-2,
     ///     loss_after: Some(9e-3), shrink: Some(0.1), shrink_std: Some(0.01),
-    ///     excess: Some(0.05), excess_std: Some(0.01), gap_explained: None,
+    ///     excess: Some(0.05), excess_std: Some(0.01), excess_spatial_std: None, gap_explained: None,
     ///     held_out_losses: vec![9e-3],
     ///     params: BTreeMap::from([(path.clone(), 1.5)]),
     ///     params_std: BTreeMap::from([(path, Some(0.75))]),

@@ -100,6 +100,7 @@ pub fn diagnose(
     let Control {
         null_refit,
         baseline,
+        baseline_blocks,
     } = null_refit(&stage, &specs, measured, held_data, opts)?;
     timings.null_refit_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -111,6 +112,7 @@ pub fn diagnose(
         &stage,
         &specs,
         &baseline,
+        &baseline_blocks,
         measured,
         held_data,
         opts,

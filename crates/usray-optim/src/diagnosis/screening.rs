@@ -261,6 +261,7 @@ pub(crate) fn screen(
             shrink_std: None,
             excess: None,
             excess_std: None,
+            excess_spatial_std: None,
             gap_explained: None,
             held_out_losses: Vec::new(),
             params: BTreeMap::new(),

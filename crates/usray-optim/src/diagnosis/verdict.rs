@@ -91,7 +91,7 @@ pub struct Verdict {
 ///     effect: "e".into(), path: "p".into(), score, onset: 0.0, range: [0.0, 1.0], null: Some(0.0),
 ///     gradient: 0.0, loss_onset: 1.0, loss_after: Some(1.0 - shrink),
 ///     shrink: Some(shrink), shrink_std: Some(0.01), excess: Some(excess),
-///     excess_std: Some(0.01), gap_explained: Some(gap), held_out_losses: vec![],
+///     excess_std: Some(0.01), excess_spatial_std: None, gap_explained: Some(gap), held_out_losses: vec![],
 ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, failed: None,
 /// };
 /// let rule = VerdictRule::default();
