@@ -374,7 +374,8 @@ fn diagnose_writes_report_with_parameter_spreads() {
         (limit - 3.0 * spread).abs() <= 1e-12 * limit,
         "{limit} vs {spread}"
     );
-    assert_eq!(v["rule"]["min_excess"].as_f64(), Some(0.2));
+    assert_eq!(v["rule"]["min_excess_z"].as_f64(), Some(3.0));
+    assert_eq!(v["rule"]["min_spatial_z"].as_f64(), Some(3.0));
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     for needle in [
         "± (Monte Carlo spread)",

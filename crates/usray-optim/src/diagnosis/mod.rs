@@ -55,22 +55,21 @@
 //!    every refit restarts Adam's moments and may).
 //!    Every fitted parameter of the calibration and of each refit carries its
 //!    Monte Carlo spread ([`crate::parameter_spread`]).
-//! 5. **Verdict** ([`name_effect`], [`unnamed_verdict`]): the gap is *real* when
-//!    the held-out calibrated loss exceeds [`VerdictRule::noise_factor`] × the
-//!    Monte Carlo noise level (the loss between the calibrated model rendered
-//!    with seed `s` and with each held-out seed, averaged). A refitted effect
+//! 5. **Verdict** ([`name_effect`], [`unnamed_verdict`]): a refitted effect
 //!    qualifies when its excess over the null refit is at least
-//!    [`VerdictRule::min_excess`] and [`VerdictRule::min_excess_z`] standard
-//!    errors — its significance — and, where the gap is real, it removes at
-//!    least [`VerdictRule::min_gap_explained`] of the gap above the noise level
-//!    (`gap_explained = (loss_calibrated − loss_after) / (loss_calibrated −
-//!    noise)`, reported beside it: with data the model cannot reproduce exactly
-//!    a model-form residual stays whatever effect is added). The qualifying
-//!    effect with the largest shrink is named — where several come within
-//!    [`VerdictRule`]'s tie margin of it, the one with the highest score, the others listed
-//!    as [`Verdict::alternatives`]. Without one, [`unnamed_verdict`] decides
-//!    between `"unexplained"`, `"none"` and `"inconclusive"` from the noise
-//!    check below.
+//!    [`VerdictRule::min_excess_z`] of its standard errors over the held-out
+//!    seeds (the simulation's noise) and [`VerdictRule::min_spatial_z`] of
+//!    its standard error over blocks of the image (`spatial`: a gain won in a
+//!    few places and paid for elsewhere is a candidate bending towards a
+//!    structure it does not hold). The share of the gap it explains,
+//!    `gap_explained = (loss_calibrated − loss_after) / (loss_calibrated −
+//!    noise)`, is reported beside it: with data the model cannot reproduce
+//!    exactly a model-form residual stays whatever effect is added. The
+//!    qualifying effect with the largest shrink is named — where several come
+//!    within [`VerdictRule`]'s tie margin of it, the one with the highest
+//!    score, the others listed as [`Verdict::alternatives`]. Without one,
+//!    [`unnamed_verdict`] decides between `"unexplained"`, `"none"` and
+//!    `"inconclusive"` from the noise check below.
 //!
 //! # Noise, candidates, failures
 //! - **The simulation's noise** ([`crate::NoiseCheck`]): after calibrating, the

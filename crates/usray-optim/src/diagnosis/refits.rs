@@ -8,7 +8,7 @@ use super::catalogue::Candidate;
 use super::held_out::{held_out, mean, mean_and_se, relative_differences};
 use super::options::DiagnoseOptions;
 use super::results::{EffectResult, NullRefit};
-use super::spatial::{block_losses, block_px, excess_spatial_std};
+use super::spatial::{block_px, excess_spatial_std, held_out_scores, HeldOutScores};
 use crate::fit::{fit_journaled, FitOptions};
 use crate::objective::Objective;
 use crate::params::ParamSpec;
@@ -27,8 +27,8 @@ pub(crate) const DETECTION_LIMIT_SPREADS: f64 = 3.0;
 /// A candidate's refit and its held-out evaluation (step 4).
 struct Refit {
     after_losses: Vec<f64>,
-    /// Each held-out seed's loss by block of the image (`spatial`).
-    after_blocks: Vec<Vec<f64>>,
+    /// The held-out seeds scored for the verdict (`spatial`).
+    after_scores: HeldOutScores,
     params: Vec<(String, f64)>,
     params_std: Vec<(String, Option<f64>)>,
     image_s: Vec<f64>,
@@ -115,7 +115,7 @@ fn refit_candidate(
     )?;
     Ok(Refit {
         after_losses: after.iter().map(|e| e.loss).collect(),
-        after_blocks: block_losses(&stage.setup, held_data, &after, block_px(&stage.scene)),
+        after_scores: held_out_scores(&stage.setup, held_data, &after, block_px(&stage.scene)),
         params: obj
             .specs
             .iter()
@@ -139,13 +139,11 @@ fn refit_candidate(
 pub(crate) struct Control {
     /// What the null refit found ([`super::Diagnosis::null_refit`]).
     pub null_refit: NullRefit,
-    /// The baseline of every excess, one loss per held-out seed: the null
-    /// refit's, or the calibrated model's where the null refit ended worse
-    /// (every refit restarts Adam's moments and may).
-    pub baseline: Vec<f64>,
-    /// The baseline's losses by block of the image, one vector per held-out
-    /// seed (`spatial`).
-    pub baseline_blocks: Vec<Vec<f64>>,
+    /// The baseline of every excess, its held-out seeds scored for the
+    /// verdict (`spatial`): the null refit's, or the calibrated model's where
+    /// the null refit ended worse (every refit restarts Adam's moments and
+    /// may).
+    pub baseline: HeldOutScores,
 }
 
 /// The control: the base parameters alone, refitted from the calibrated point
@@ -187,12 +185,12 @@ pub(crate) fn null_refit(
         &null_losses,
         stage.held_loss,
     ));
-    let (baseline, baseline_evals) = if shrink > 0.0 {
-        (null_losses.clone(), &null_after)
+    let baseline_evals = if shrink > 0.0 {
+        &null_after
     } else {
-        (stage.held_losses.clone(), &stage.held)
+        &stage.held
     };
-    let baseline_blocks = block_losses(
+    let baseline = held_out_scores(
         &stage.setup,
         held_data,
         baseline_evals,
@@ -211,7 +209,6 @@ pub(crate) fn null_refit(
                 .collect(),
         },
         baseline,
-        baseline_blocks,
     })
 }
 
@@ -239,8 +236,7 @@ pub(crate) fn refit_leading(
     effects: &mut [EffectResult],
     stage: &Stage,
     specs: &[ParamSpec],
-    baseline: &[f64],
-    baseline_blocks: &[Vec<f64>],
+    baseline: &HeldOutScores,
     measured: &[f64],
     held_data: &[f64],
     opts: &DiagnoseOptions,
@@ -274,14 +270,19 @@ pub(crate) fn refit_leading(
             held_loss,
         ));
         let (excess, excess_std) =
-            mean_and_se(&relative_differences(baseline, &r.after_losses, held_loss));
+            mean_and_se(&relative_differences(
+                &baseline.per_seed,
+                &r.after_scores.per_seed,
+                held_loss,
+            ));
         let e = &mut effects[k];
         e.loss_after = Some(after_loss);
         e.shrink = Some(shrink);
         e.shrink_std = shrink_std;
         e.excess = Some(excess);
         e.excess_std = excess_std;
-        e.excess_spatial_std = excess_spatial_std(baseline_blocks, &r.after_blocks, held_loss);
+        e.excess_spatial_std =
+            excess_spatial_std(&baseline.blocks, &r.after_scores.blocks, held_loss);
         e.gap_explained =
             (held_loss > noise_loss).then(|| (held_loss - after_loss) / (held_loss - noise_loss));
         e.held_out_losses = r.after_losses;

@@ -78,10 +78,13 @@ pub struct EffectResult {
     /// (absent when not refitted or with one held-out seed).
     pub shrink_std: Option<f64>,
     /// How much more the effect's refit shrinks the held-out loss than the null
-    /// refit does: `(null_after − loss_after) / calibrated.loss_held_out`, seed
-    /// by seed (common random numbers), averaged — against the calibrated
-    /// model's held-out losses instead when the null refit ended worse than the
-    /// calibration (absent when not refitted).
+    /// refit does: `(null_after − after) / calibrated.loss_held_out`, seed by
+    /// seed (common random numbers), averaged — against the calibrated
+    /// model's held-out evaluations instead when the null refit ended worse
+    /// than the calibration (absent when not refitted). Each seed's loss is
+    /// taken as a score unbiased in the simulation's variance (the energy
+    /// score with the next seed's image; with a paired loss, the loss), so
+    /// that a quieter simulation is no explanation.
     pub excess: Option<f64>,
     /// Standard error of [`EffectResult::excess`] from its per-seed values
     /// (absent when not refitted or with one held-out seed).

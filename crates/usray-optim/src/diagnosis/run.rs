@@ -100,7 +100,6 @@ pub fn diagnose(
     let Control {
         null_refit,
         baseline,
-        baseline_blocks,
     } = null_refit(&stage, &specs, measured, held_data, opts)?;
     timings.null_refit_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -112,7 +111,6 @@ pub fn diagnose(
         &stage,
         &specs,
         &baseline,
-        &baseline_blocks,
         measured,
         held_data,
         opts,
@@ -122,12 +120,11 @@ pub fn diagnose(
     timings.spread_s += refit_spread_s;
 
     // Step 5: verdict.
-    let real_gap = stage.held_loss > opts.rule.noise_factor * stage.noise_loss;
     let refitted: Vec<EffectResult> = refits
         .iter()
         .map(|r| effects[r.candidate].clone())
         .collect();
-    let named = name_effect(&refitted, real_gap, &opts.rule).map(|(i, tied)| {
+    let named = name_effect(&refitted, &opts.rule).map(|(i, tied)| {
         let k = refits[i].candidate;
         let alternatives: Vec<String> = tied
             .iter()

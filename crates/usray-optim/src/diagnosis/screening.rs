@@ -13,8 +13,8 @@ use usray_transport::{RenderOptions, Scene};
 
 /// Scoring renders the loss at a candidate's Newton step only when the quadratic
 /// model predicts that the step cuts at least this fraction of the calibrated
-/// loss; below it the prediction is the score (a fraction far under
-/// [`super::VerdictRule::min_excess`]'s default 0.2, so no verdict turns on it).
+/// loss; below it the prediction is the score. The score only orders the
+/// candidates for their refits; no verdict turns on it.
 const MIN_CHECKED_REDUCTION: f64 = 0.03;
 
 /// At most this many halvings of a candidate's Newton step in its scoring

@@ -21,9 +21,11 @@
 //! Blocks the model and data leave empty add `D_b ≈ 0` to both the sum and the
 //! spread and change the ratio little.
 //!
-//! With a paired loss the blocks take the first seed's image alone, so the
-//! blocks' sum differs from the paired excess by the paired loss's correction;
-//! the spread across blocks is what is used.
+//! The losses compared are scores unbiased in the simulation's variance
+//! ([`held_out_scores`]), so that a candidate is not credited for a quieter
+//! simulation. With a paired loss the blocks take the first seed's image
+//! alone, so the blocks' sum differs from the paired excess by the paired
+//! loss's correction; the spread across blocks is what is used.
 
 use super::calibration::LossSetup;
 use crate::objective::Evaluation;
@@ -42,30 +44,73 @@ pub(crate) fn block_px(scene: &Scene) -> usize {
     ((BLOCK_WAVELENGTHS * wavelength_m / scene.imaging.pixel_m).round() as usize).max(2)
 }
 
-/// Each evaluation's loss against `measured` by block of `side` pixels
-/// (row-major over the blocks), through `setup`'s comparison; the blocks of
-/// one evaluation sum to its one-image pixel loss.
-pub(crate) fn block_losses(
+/// The held-out evaluations of one model as the verdict compares them: each
+/// seed's score and its shares by block of the image.
+pub(crate) struct HeldOutScores {
+    /// One score per held-out seed.
+    pub per_seed: Vec<f64>,
+    /// Each seed's score by block (row-major over the blocks); they sum to
+    /// [`HeldOutScores::per_seed`] (for a paired loss, to its first image's
+    /// pixel loss).
+    pub blocks: Vec<Vec<f64>>,
+}
+
+/// The held-out evaluations `evals` of one model against `measured`, scored
+/// for the verdict by blocks of `side` pixels, through `setup`'s comparison.
+///
+/// The one-render loss rewards a quieter simulation: for a pixel `s` of the
+/// model, `E ℓ₂(s − R) = (E s − R)² + Var s`, so a candidate that only
+/// darkens the model's Monte Carlo clutter (an attenuation at depth) gains on
+/// every seed and in every block. Each seed `j` is therefore scored in the
+/// form of the energy score with the next seed's image (Gneiting & Raftery,
+/// *JASA* 102, 359, 2007, eq. 22; [`L1L2::paired_value_and_gradient`]):
+/// `S_j = L(I_j, R) − ½ L(I_j, I_{j+1})` (cyclically), whose ℓ2 term's
+/// expectation is `(E s − R)²` exactly. No render is added: the seeds' images
+/// are already there. A paired loss already is this score (each evaluation's
+/// loss is taken as it is; its blocks are the first image's pixel loss);
+/// with one seed no pair exists and the loss is taken as it is.
+pub(crate) fn held_out_scores(
     setup: &LossSetup,
     measured: &[f64],
     evals: &[Evaluation],
     side: usize,
-) -> Vec<Vec<f64>> {
-    evals
-        .iter()
-        .map(|e| {
-            let (nz, nx) = (e.image.nz, e.image.nx);
-            let (sim, reference) = if setup.comparison.is_identity() {
-                (e.image.data.clone(), measured.to_vec())
-            } else {
-                (
-                    setup.comparison.apply(&e.image.data, nz, nx),
-                    setup.comparison.apply(measured, nz, nx),
-                )
-            };
-            per_block(&sim, &reference, nz, nx, side, &L1L2::default())
+) -> HeldOutScores {
+    let loss = L1L2::default();
+    let Some(first) = evals.first() else {
+        return HeldOutScores {
+            per_seed: vec![],
+            blocks: vec![],
+        };
+    };
+    let (nz, nx) = (first.image.nz, first.image.nx);
+    let compare = |image: &[f64]| {
+        if setup.comparison.is_identity() {
+            image.to_vec()
+        } else {
+            setup.comparison.apply(image, nz, nx)
+        }
+    };
+    let reference = compare(measured);
+    let compared: Vec<Vec<f64>> = evals.iter().map(|e| compare(&e.image.data)).collect();
+    let k = compared.len();
+    let blocks: Vec<Vec<f64>> = (0..k)
+        .map(|j| {
+            let mut b = per_block(&compared[j], &reference, nz, nx, side, &loss);
+            if !setup.paired && k > 1 {
+                let own = per_block(&compared[j], &compared[(j + 1) % k], nz, nx, side, &loss);
+                for (x, o) in b.iter_mut().zip(own) {
+                    *x -= 0.5 * o;
+                }
+            }
+            b
         })
-        .collect()
+        .collect();
+    let per_seed = if setup.paired || k == 1 {
+        evals.iter().map(|e| e.loss).collect()
+    } else {
+        blocks.iter().map(|b| b.iter().sum()).collect()
+    };
+    HeldOutScores { per_seed, blocks }
 }
 
 /// `L_b = (1/N_pix) Σ_{u∈b} (λ₁|a_u − r_u| + λ₂ (a_u − r_u)²)` for each block
