@@ -350,11 +350,7 @@ fn unmodelled_wire_names_no_effect() {
     assert!(r.calibrated.loss_held_out > 1.5 * r.noise_loss);
     for e in r.effects.iter().filter(|e| e.shrink.is_some()) {
         let g = e.gap_explained.expect("a real gap has a share explained");
-        assert!(
-            g < 0.25,
-            "{} explains {g:.2} of the wire's gap",
-            e.effect
-        );
+        assert!(g < 0.25, "{} explains {g:.2} of the wire's gap", e.effect);
     }
 }
 
@@ -474,10 +470,7 @@ fn attenuation_inside_the_object_is_scored_inside_its_basin() {
         .find(|(c, ..)| matches!(c.key.owner, Owner::Material(_)))
         .unwrap();
     let (_, score, start) = inside;
-    assert!(
-        *score > 0.2,
-        "score {score}"
-    );
+    assert!(*score > 0.2, "score {score}");
     assert!(
         (0.5 * alpha..=2.0 * alpha).contains(start),
         "refit would start at {start} for {alpha}"

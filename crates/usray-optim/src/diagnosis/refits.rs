@@ -269,12 +269,11 @@ pub(crate) fn refit_leading(
             &r.after_losses,
             held_loss,
         ));
-        let (excess, excess_std) =
-            mean_and_se(&relative_differences(
-                &baseline.per_seed,
-                &r.after_scores.per_seed,
-                held_loss,
-            ));
+        let (excess, excess_std) = mean_and_se(&relative_differences(
+            &baseline.per_seed,
+            &r.after_scores.per_seed,
+            held_loss,
+        ));
         let e = &mut effects[k];
         e.loss_after = Some(after_loss);
         e.shrink = Some(shrink);

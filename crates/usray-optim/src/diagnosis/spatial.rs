@@ -123,7 +123,8 @@ fn per_block(a: &[f64], r: &[f64], nz: usize, nx: usize, side: usize, loss: &L1L
     for iz in 0..nz {
         for ix in 0..nx {
             let d = a[iz * nx + ix] - r[iz * nx + ix];
-            out[(iz / side) * bx + ix / side] += (loss.lambda1 * d.abs() + loss.lambda2 * d * d) / n;
+            out[(iz / side) * bx + ix / side] +=
+                (loss.lambda1 * d.abs() + loss.lambda2 * d * d) / n;
         }
     }
     out
@@ -132,11 +133,7 @@ fn per_block(a: &[f64], r: &[f64], nz: usize, nx: usize, side: usize, loss: &L1L
 /// The spatial standard error of an excess: `√B · sd(D_b)`, with `D_b` the
 /// per-seed block differences `(base_jb − after_jb) / scale` averaged over the
 /// seeds (module docs). `None` with fewer than two blocks.
-pub(crate) fn excess_spatial_std(
-    base: &[Vec<f64>],
-    after: &[Vec<f64>],
-    scale: f64,
-) -> Option<f64> {
+pub(crate) fn excess_spatial_std(base: &[Vec<f64>], after: &[Vec<f64>], scale: f64) -> Option<f64> {
     let blocks = base.first()?.len();
     if blocks < 2 || base.len() != after.len() || base.is_empty() {
         return None;
@@ -207,7 +204,10 @@ mod tests {
         let n = 40_000;
         let reference = vec![0.5; n];
         let setup = LossSetup::default();
-        let (loud, quiet) = (noisy(6, n, 0.10, 1, &reference), noisy(6, n, 0.02, 2, &reference));
+        let (loud, quiet) = (
+            noisy(6, n, 0.10, 1, &reference),
+            noisy(6, n, 0.02, 2, &reference),
+        );
         let score = |e: &[Evaluation]| {
             let s = held_out_scores(&setup, &reference, e, 1000);
             let one: f64 = e.iter().map(|x| x.loss).sum::<f64>() / e.len() as f64;
@@ -219,8 +219,16 @@ mod tests {
         let energy = 0.08 * root * (1.0 - std::f64::consts::FRAC_1_SQRT_2);
         // Standard error of a mean over 6·40 000 pixels of a loss whose spread
         // is about σ: under 3e-4; allow 5 of them.
-        assert!(((l_loud - l_quiet) - one_render).abs() < 1.5e-3, "{}", l_loud - l_quiet);
-        assert!(((s_loud - s_quiet) - energy).abs() < 1.5e-3, "{}", s_loud - s_quiet);
+        assert!(
+            ((l_loud - l_quiet) - one_render).abs() < 1.5e-3,
+            "{}",
+            l_loud - l_quiet
+        );
+        assert!(
+            ((s_loud - s_quiet) - energy).abs() < 1.5e-3,
+            "{}",
+            s_loud - s_quiet
+        );
         // The blocks sum to each seed's score.
         let s = held_out_scores(&setup, &reference, &loud, 1000);
         for (b, v) in s.blocks.iter().zip(&s.per_seed) {
@@ -232,8 +240,12 @@ mod tests {
     #[test]
     fn blocks_sum_to_the_pixel_loss() {
         let (nz, nx) = (7, 5);
-        let a: Vec<f64> = (0..nz * nx).map(|i| (i as f64 * 0.37).sin().abs()).collect();
-        let r: Vec<f64> = (0..nz * nx).map(|i| (i as f64 * 0.11).cos().abs()).collect();
+        let a: Vec<f64> = (0..nz * nx)
+            .map(|i| (i as f64 * 0.37).sin().abs())
+            .collect();
+        let r: Vec<f64> = (0..nz * nx)
+            .map(|i| (i as f64 * 0.11).cos().abs())
+            .collect();
         let loss = L1L2::default();
         let blocks = per_block(&a, &r, nz, nx, 3, &loss);
         assert_eq!(blocks.len(), 3 * 2);
