@@ -61,7 +61,10 @@
 //!    seeds (the simulation's noise) and [`VerdictRule::min_spatial_z`] of
 //!    its standard error over blocks of the image (`spatial`: a gain won in a
 //!    few places and paid for elsewhere is a candidate bending towards a
-//!    structure it does not hold). The share of the gap it explains,
+//!    structure it does not hold); where the simulation's noise failed its
+//!    check, its excess must also reach [`VerdictRule::large_excess`] (the
+//!    one-render loss rewards a quieter simulation). The share of the gap it
+//!    explains,
 //!    `gap_explained = (loss_calibrated − loss_after) / (loss_calibrated −
 //!    noise)`, is reported beside it: with data the model cannot reproduce
 //!    exactly a model-form residual stays whatever effect is added. The

@@ -8,7 +8,7 @@ use super::catalogue::Candidate;
 use super::held_out::{held_out, mean, mean_and_se, relative_differences};
 use super::options::DiagnoseOptions;
 use super::results::{EffectResult, NullRefit};
-use super::spatial::{block_px, excess_spatial_std, held_out_scores, HeldOutScores};
+use super::spatial::{block_px, excess_spatial_std, held_out_losses, HeldOutLosses};
 use crate::fit::{fit_journaled, FitOptions};
 use crate::objective::Objective;
 use crate::params::ParamSpec;
@@ -27,8 +27,8 @@ pub(crate) const DETECTION_LIMIT_SPREADS: f64 = 3.0;
 /// A candidate's refit and its held-out evaluation (step 4).
 struct Refit {
     after_losses: Vec<f64>,
-    /// The held-out seeds scored for the verdict (`spatial`).
-    after_scores: HeldOutScores,
+    /// The held-out losses, per seed and by block of the image (`spatial`).
+    after_held: HeldOutLosses,
     params: Vec<(String, f64)>,
     params_std: Vec<(String, Option<f64>)>,
     image_s: Vec<f64>,
@@ -115,7 +115,7 @@ fn refit_candidate(
     )?;
     Ok(Refit {
         after_losses: after.iter().map(|e| e.loss).collect(),
-        after_scores: held_out_scores(&stage.setup, held_data, &after, block_px(&stage.scene)),
+        after_held: held_out_losses(&stage.setup, held_data, &after, block_px(&stage.scene)),
         params: obj
             .specs
             .iter()
@@ -139,11 +139,11 @@ fn refit_candidate(
 pub(crate) struct Control {
     /// What the null refit found ([`super::Diagnosis::null_refit`]).
     pub null_refit: NullRefit,
-    /// The baseline of every excess, its held-out seeds scored for the
-    /// verdict (`spatial`): the null refit's, or the calibrated model's where
+    /// The baseline of every excess, its held-out losses per seed and by
+    /// block of the image (`spatial`): the null refit's, or the calibrated model's where
     /// the null refit ended worse (every refit restarts Adam's moments and
     /// may).
-    pub baseline: HeldOutScores,
+    pub baseline: HeldOutLosses,
 }
 
 /// The control: the base parameters alone, refitted from the calibrated point
@@ -190,7 +190,7 @@ pub(crate) fn null_refit(
     } else {
         &stage.held
     };
-    let baseline = held_out_scores(
+    let baseline = held_out_losses(
         &stage.setup,
         held_data,
         baseline_evals,
@@ -236,7 +236,7 @@ pub(crate) fn refit_leading(
     effects: &mut [EffectResult],
     stage: &Stage,
     specs: &[ParamSpec],
-    baseline: &HeldOutScores,
+    baseline: &HeldOutLosses,
     measured: &[f64],
     held_data: &[f64],
     opts: &DiagnoseOptions,
@@ -271,7 +271,7 @@ pub(crate) fn refit_leading(
         ));
         let (excess, excess_std) = mean_and_se(&relative_differences(
             &baseline.per_seed,
-            &r.after_scores.per_seed,
+            &r.after_held.per_seed,
             held_loss,
         ));
         let e = &mut effects[k];
@@ -281,7 +281,7 @@ pub(crate) fn refit_leading(
         e.excess = Some(excess);
         e.excess_std = excess_std;
         e.excess_spatial_std =
-            excess_spatial_std(&baseline.blocks, &r.after_scores.blocks, held_loss);
+            excess_spatial_std(&baseline.blocks, &r.after_held.blocks, held_loss);
         e.gap_explained =
             (held_loss > noise_loss).then(|| (held_loss - after_loss) / (held_loss - noise_loss));
         e.held_out_losses = r.after_losses;

@@ -81,10 +81,7 @@ pub struct EffectResult {
     /// refit does: `(null_after − after) / calibrated.loss_held_out`, seed by
     /// seed (common random numbers), averaged — against the calibrated
     /// model's held-out evaluations instead when the null refit ended worse
-    /// than the calibration (absent when not refitted). Each seed's loss is
-    /// taken as a score unbiased in the simulation's variance (the energy
-    /// score with the next seed's image; with a paired loss, the loss), so
-    /// that a quieter simulation is no explanation.
+    /// than the calibration (absent when not refitted).
     pub excess: Option<f64>,
     /// Standard error of [`EffectResult::excess`] from its per-seed values
     /// (absent when not refitted or with one held-out seed).

@@ -124,7 +124,7 @@ pub fn diagnose(
         .iter()
         .map(|r| effects[r.candidate].clone())
         .collect();
-    let named = name_effect(&refitted, &opts.rule).map(|(i, tied)| {
+    let named = name_effect(&refitted, noise_check.passed, &opts.rule).map(|(i, tied)| {
         let k = refits[i].candidate;
         let alternatives: Vec<String> = tied
             .iter()
