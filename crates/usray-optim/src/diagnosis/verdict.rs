@@ -174,8 +174,7 @@ pub fn unnamed_verdict(
 ) -> &'static str {
     let significant = refits.iter().any(|e| {
         e.excess.is_some_and(|x| {
-            x >= rule.large_excess
-                && e.excess_std.is_none_or(|se| x >= rule.min_excess_z * se)
+            x >= rule.large_excess && e.excess_std.is_none_or(|se| x >= rule.min_excess_z * se)
         })
     });
     match (significant, noise_passed) {
