@@ -26,7 +26,6 @@ pub(crate) const DETECTION_LIMIT_SPREADS: f64 = 3.0;
 
 /// A candidate's refit and its held-out evaluation (step 4).
 struct Refit {
-    after_losses: Vec<f64>,
     /// The held-out losses, per seed and by block of the image (`spatial`).
     after_held: HeldOutLosses,
     params: Vec<(String, f64)>,
@@ -114,7 +113,6 @@ fn refit_candidate(
         opts.spread_pairs,
     )?;
     Ok(Refit {
-        after_losses: after.iter().map(|e| e.loss).collect(),
         after_held: held_out_losses(&stage.setup, held_data, &after, block_px(&stage.scene)),
         params: obj
             .specs
@@ -263,10 +261,10 @@ pub(crate) fn refit_leading(
             }
         };
         spread_s += r.spread_s;
-        let after_loss = mean(&r.after_losses);
+        let after_loss = mean(&r.after_held.per_seed);
         let (shrink, shrink_std) = mean_and_se(&relative_differences(
             held_losses,
-            &r.after_losses,
+            &r.after_held.per_seed,
             held_loss,
         ));
         let (excess, excess_std) = mean_and_se(&relative_differences(
@@ -284,7 +282,7 @@ pub(crate) fn refit_leading(
             excess_spatial_std(&baseline.blocks, &r.after_held.blocks, held_loss);
         e.gap_explained =
             (held_loss > noise_loss).then(|| (held_loss - after_loss) / (held_loss - noise_loss));
-        e.held_out_losses = r.after_losses;
+        e.held_out_losses = r.after_held.per_seed;
         e.params = r.params.into_iter().collect();
         e.params_std = r.params_std.into_iter().collect();
         e.detection_limit = c
