@@ -143,6 +143,28 @@ fn every_candidate_at_its_null_renders_the_base_model() {
         let switched = differing_samples(&c.switched_on(&base, away).unwrap());
         assert!(switched > 0, "{} = {away} renders as the base model", c.key);
     }
+    // A hollow cylinder has one more: scatterers in its lumen.
+    let wall = candidates
+        .iter()
+        .find(|c| c.effect == "wall_thickness")
+        .unwrap();
+    let hollow = wall.switched_on(&base, wall.onsets[0]).unwrap();
+    let (reference, _) = usray::transport::render(&hollow, &opts).unwrap();
+    let lumen = catalogue(&hollow)
+        .into_iter()
+        .find(|c| c.key.to_string() == "objects.cylinder.lumen_scatterer_strength")
+        .expect("a lumen candidate for the hollow cylinder");
+    let null = lumen.null.unwrap();
+    for (value, renders_as_base) in [(null, true), (0.1 * lumen.range.1, false)] {
+        let (ch, _) =
+            usray::transport::render(&lumen.switched_on(&hollow, value).unwrap(), &opts).unwrap();
+        let same = ch
+            .samples
+            .iter()
+            .zip(&reference.samples)
+            .all(|(a, b)| a.to_bits() == b.to_bits());
+        assert_eq!(same, renders_as_base, "lumen scatterers at {value}");
+    }
 }
 
 /// The paper's case: data from a ring whose wall is a draw of 0.25–0.4 × the

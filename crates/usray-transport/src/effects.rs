@@ -124,12 +124,35 @@ impl ScattererField {
     /// assert!(ScattererField::new(0, 0.0).is_none());
     /// ```
     pub fn new(object: usize, per_mm3: f64) -> Option<Self> {
+        Self::keyed(Self::material_key(object), per_mm3)
+    }
+
+    /// The field keyed `key` (its scatterers are hashes of the key and the
+    /// cell) with density `per_mm3`; `None` for a density that is not positive
+    /// and finite.
+    pub fn keyed(key: u64, per_mm3: f64) -> Option<Self> {
         let grid = Self::grid_density_per_mm3(per_mm3)?;
         Some(Self {
             cell_m: 1e-3 * grid.powf(-1.0 / 3.0),
             grid_per_mm3: grid,
-            key: mix64(0x5ca7_7e2e_0000_0000 ^ object as u64),
+            key,
         })
+    }
+
+    /// Key of the field filling object `object`'s material.
+    pub fn material_key(object: usize) -> u64 {
+        mix64(0x5ca7_7e2e_0000_0000 ^ object as u64)
+    }
+
+    /// Key of the field in object `object`'s lumen (another pattern than its
+    /// wall's material).
+    ///
+    /// ```
+    /// use usray_transport::effects::ScattererField;
+    /// assert_ne!(ScattererField::lumen_key(0), ScattererField::material_key(0));
+    /// ```
+    pub fn lumen_key(object: usize) -> u64 {
+        mix64(0x1a4e_5ca7_0000_0000 ^ object as u64)
     }
 
     /// `ρ_g`: the smallest power of two `≥ per_mm3` (`None` unless positive and

@@ -12,6 +12,14 @@ use usray_transport::{Field, ParamKey, Scene};
 /// strength is what is scored and fitted.
 pub(crate) const SCATTERER_DENSITY_PER_MM3: f64 = 5.0;
 
+/// Onsets of a `volume_scattering` candidate's strength (range 0–0.7 at
+/// [`SCATTERER_DENSITY_PER_MM3`]): a faint speckle first, then ×3 and ×9. A
+/// speckle much fainter than the measured one lies below the display's floor,
+/// where the clip map's derivative is zero (paper eq. clip_grad) and the loss
+/// is flat: k-Wave's lumen speckle at about −25 dB scored 0.001 from 0.035
+/// alone. The best by loss is scored, as for the sound speed.
+pub(crate) const SCATTERER_STRENGTH_ONSETS: [f64; 3] = [0.035, 0.1, 0.3];
+
 /// Largest depth gain the `depth_gain` candidate may take, dB/cm: the two-way
 /// attenuation `2αf_c` of 1 dB/(cm·MHz) at 5 MHz.
 pub(crate) const DEPTH_GAIN_MAX_DB_PER_CM: f64 = 10.0;
@@ -70,7 +78,8 @@ impl Candidate {
 }
 
 /// Sets `key` to `value`, creating the optional keys an effect switches on
-/// (`objects.NAME.thickness_m`, `imaging.sound_speed_m_s`).
+/// (`objects.NAME.thickness_m`, `objects.NAME.lumen_scatterer_*`,
+/// `imaging.sound_speed_m_s`).
 fn switch_on(s: &mut Scene, key: &ParamKey, value: f64) -> Result<(), OptimError> {
     match (&key.owner, key.field) {
         (Owner::Object(name), Field::Thickness) => {
@@ -82,6 +91,18 @@ fn switch_on(s: &mut Scene, key: &ParamKey, value: f64) -> Result<(), OptimError
             o.thickness_m = Some(value);
         }
         (Owner::Imaging, Field::SoundSpeed) => s.imaging.sound_speed_m_s = Some(value),
+        (Owner::Object(name), Field::ScattererStrength | Field::ScattererDensity) => {
+            let o = s
+                .objects
+                .iter_mut()
+                .find(|o| o.name == *name)
+                .ok_or_else(|| OptimError::Diagnosis(format!("no object `{name}` for {key}")))?;
+            if key.field == Field::ScattererStrength {
+                o.lumen_scatterer_strength = Some(value);
+            } else {
+                o.lumen_scatterer_density_per_mm3 = Some(value);
+            }
+        }
         _ => s.set(key, value)?,
     }
     s.validate()?;
@@ -89,7 +110,8 @@ fn switch_on(s: &mut Scene, key: &ParamKey, value: f64) -> Result<(), OptimError
 }
 
 /// The candidate effects for `scene` (CONTRACT §3): a wall for each solid
-/// cylinder, attenuation of the medium, scatterers in each object's material, a
+/// cylinder, attenuation of the medium, scatterers in each object's material
+/// and in each hollow cylinder's lumen, a
 /// medium sound speed different from the beamformer's, a pulse length different
 /// from the scene's (beyond CONTRACT §3's five), and a depth gain up with depth
 /// (a gain down with depth images as attenuation).
@@ -188,21 +210,22 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         if scene.materials.get(m).is_some_and(|mat| {
             mat.scatterer_density_per_mm3 == 0.0 || mat.scatterer_strength == 0.0
         }) {
-            out.push(Candidate {
-                effect: "volume_scattering".into(),
-                key: ParamKey::material(m, Field::ScattererStrength),
-                // Power per volume ρ·strength² (ScattererField): 0.7 at 5 per
-                // mm³ is a speckle as bright as a strong specular echo.
-                onsets: vec![0.035],
-                range: (0.0, 0.7),
-                two_sided: false,
-                null: Some(0.0),
-                fixed: vec![(
-                    ParamKey::material(m, Field::ScattererDensity),
-                    SCATTERER_DENSITY_PER_MM3,
-                )],
-                learning_rate: EFFECT_LEARNING_RATE,
-            });
+            out.push(volume_scattering(
+                ParamKey::material(m, Field::ScattererStrength),
+                ParamKey::material(m, Field::ScattererDensity),
+            ));
+        }
+    }
+    // Scatterers in each hollow cylinder's lumen (blood in a vessel, a cyst's
+    // contents): the lumen is the surrounding medium, so the material's
+    // candidate above does not reach it.
+    for o in &scene.objects {
+        let hollow = o.shape == ShapeKind::Cylinder && o.thickness_m.is_some();
+        if hollow && o.lumen_scatterer_strength.unwrap_or(0.0) == 0.0 {
+            out.push(volume_scattering(
+                ParamKey::object(&o.name, Field::ScattererStrength),
+                ParamKey::object(&o.name, Field::ScattererDensity),
+            ));
         }
     }
     let c_img = scene
@@ -272,6 +295,24 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         });
     }
     out
+}
+
+/// The `volume_scattering` candidate of the field whose strength and density
+/// are `strength` and `density`: switched on at [`SCATTERER_DENSITY_PER_MM3`],
+/// its strength scored from [`SCATTERER_STRENGTH_ONSETS`] and refitted in
+/// 0–0.7 (power per volume ρ·strength², `ScattererField`: 0.7 at 5 per mm³ is
+/// a speckle as bright as a strong specular echo).
+fn volume_scattering(strength: ParamKey, density: ParamKey) -> Candidate {
+    Candidate {
+        effect: "volume_scattering".into(),
+        key: strength,
+        onsets: SCATTERER_STRENGTH_ONSETS.to_vec(),
+        range: (0.0, 0.7),
+        two_sided: false,
+        null: Some(0.0),
+        fixed: vec![(density, SCATTERER_DENSITY_PER_MM3)],
+        learning_rate: EFFECT_LEARNING_RATE,
+    }
 }
 
 /// A wall's echo width `Δt = c_wall·cycles/(2 f_c)`, m: the wall thickness

@@ -84,6 +84,18 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candi
         c.learning_rate = wall_learning_rate(dt, range);
         out.push(c);
     }
+    // Lumen scatterers already switched on, as a material's below.
+    for o in &scene.objects {
+        let path = ParamKey::object(&o.name, Field::ScattererStrength);
+        if let (Some(v), Some(rho)) = (
+            o.lumen_scatterer_strength,
+            o.lumen_scatterer_density_per_mm3,
+        ) {
+            if v > 0.0 && rho > 0.0 && free(&path) {
+                out.push(two_sided("volume_scattering", path, v, (0.0, 4.0 * v), &[]));
+            }
+        }
+    }
     let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
     materials.sort_unstable();
     materials.dedup();

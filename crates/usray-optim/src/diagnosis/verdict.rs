@@ -76,7 +76,12 @@ pub struct Verdict {
 /// image's blocks: significant against the simulation's noise and spread over
 /// the image rather than won in a few places and paid for in others. Where
 /// the simulation's noise failed its check (`noise_passed` false), it must
-/// also be at least [`VerdictRule::large_excess`]. How much
+/// also be at least [`VerdictRule::large_excess`]. And its parameter must have
+/// settled inside its physical range, not at a bound
+/// ([`EffectResult::at_range_bound`]): a refit pressed against the edge of
+/// what the effect can physically be is using the effect as a proxy for
+/// something else (on the k-Wave rings, a wall's sound speed at +15% stood in
+/// for attenuation), and says so in the report instead. How much
 /// of the gap it explains is reported beside it, not a condition: against data
 /// the model cannot reproduce exactly, a model-form residual stays whatever
 /// effect is added.
@@ -109,8 +114,12 @@ pub struct Verdict {
 /// assert!(name_effect(&[refit(0.3, 0.35, 0.25, 0.1)], true, &rule).is_none());
 /// // …but a small gain that every block shares is…
 /// assert_eq!(name_effect(&[refit(0.3, 0.1, 0.05, 0.01)], true, &rule).unwrap().0, 0);
-/// // …unless the simulation's noise is too large a share of the gap.
+/// // …unless the simulation's noise is too large a share of the gap…
 /// assert!(name_effect(&[refit(0.3, 0.1, 0.05, 0.01)], false, &rule).is_none());
+/// // …or the refit ends at the bound of the effect's range.
+/// let mut at_bound = refit(0.3, 0.8, 0.7, 0.1);
+/// at_bound.params.insert("p".into(), 1.0);
+/// assert!(name_effect(&[at_bound], true, &rule).is_none());
 /// ```
 pub fn name_effect(
     refits: &[EffectResult],
@@ -128,7 +137,7 @@ pub fn name_effect(
             .excess_spatial_std
             .is_some_and(|se| excess >= rule.min_spatial_z * se);
         let large_enough = noise_passed || excess >= rule.large_excess;
-        excess > 0.0 && over_seeds && over_image && large_enough
+        excess > 0.0 && over_seeds && over_image && large_enough && !e.at_range_bound()
     };
     let shrink = |i: usize| refits[i].shrink.unwrap_or(f64::NEG_INFINITY);
     let qualified: Vec<usize> = (0..refits.len())
@@ -154,8 +163,9 @@ pub fn name_effect(
 /// A refit that still beats the null refit by a large margin (excess at least
 /// [`VerdictRule::large_excess`] and [`VerdictRule::min_excess_z`] seed
 /// standard errors) without qualifying — its gain not shared across the
-/// image — says something structured is there that no candidate accounts
-/// for: `"unexplained"`. Otherwise, where the
+/// image, or its parameter pressed against the bound of its range — says
+/// something structured is there that no candidate accounts for:
+/// `"unexplained"`. Otherwise, where the
 /// simulation's noise is a small enough share of the gap (`noise_passed`,
 /// [`crate::NoiseCheck`]) to have seen an effect above its limit of detection,
 /// `"none"`; where it is not, `"inconclusive"`, never `"none"`: the noise may

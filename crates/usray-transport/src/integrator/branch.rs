@@ -3,8 +3,9 @@
 //! [`super`]: 3b and 5 in their own files).
 
 use super::context::PathCtx;
+use super::volume::{Scatterers, Span};
 use super::Deposit;
-use crate::effects::attenuation_and_exponent;
+use crate::effects::{attenuation_and_exponent, ScattererField};
 use crate::probe::{array_surface_t, distance_bound_m};
 use crate::rng::PathSampler;
 use usray_ad::Real;
@@ -68,12 +69,40 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             _ => t_array.value(),
         };
 
-        // Step 3a: volume scatterers along the segment.
-        if let Some(obj) = stack.top() {
-            if medium.scatterer_density_per_mm3.value() > 0.0 && seg_len.is_finite() {
-                self.volume(
-                    obj, &medium, stack, origin, dir, seg_len, w, beta, time, &sampler, bounce,
+        // Step 3a: volume scatterers along the segment — the material's, inside
+        // an object, and those of any lumen the segment crosses in the medium
+        // that fills it.
+        if seg_len.is_finite() {
+            let span = |s| Span {
+                medium: &medium,
+                stack,
+                origin,
+                dir,
+                s,
+            };
+            if let Some(obj) = stack.top() {
+                let src = Scatterers::new(
+                    ScattererField::material_key(obj),
+                    medium.scatterer_density_per_mm3,
+                    medium.scatterer_strength,
                 );
+                if let Some(src) = src {
+                    self.volume(&src, &span((0.0, seg_len)), w, beta, time, &sampler, bounce);
+                }
+            }
+            for (k, o) in st.objects.iter().enumerate() {
+                let Some(lumen) = o.lumen.filter(|l| l.enclosing == stack.top()) else {
+                    continue;
+                };
+                let src = Scatterers::new(
+                    ScattererField::lumen_key(k),
+                    lumen.scatterer_density_per_mm3,
+                    lumen.scatterer_strength,
+                );
+                let chord = lumen.chord(origin.value(), dir.value(), seg_len);
+                if let (Some(src), Some(s)) = (src, chord) {
+                    self.volume(&src, &span(s), w, beta, time, &sampler, bounce);
+                }
             }
         }
 

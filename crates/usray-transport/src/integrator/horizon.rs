@@ -47,7 +47,11 @@ impl Horizon {
         let delta = st
             .objects
             .iter()
-            .filter_map(|o| ScattererField::new(0, o.material.scatterer_density_per_mm3.value()))
+            .flat_map(|o| {
+                let lumen = o.lumen.map(|l| l.scatterer_density_per_mm3.value());
+                std::iter::once(o.material.scatterer_density_per_mm3.value()).chain(lumen)
+            })
+            .filter_map(|density| ScattererField::new(0, density))
             .map(|f| 3f64.sqrt() * f.cell_m)
             .fold(0.0, f64::max);
         let volume_slack = 2.0 * delta / c_max + delta / c_min;

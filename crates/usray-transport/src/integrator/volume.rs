@@ -1,6 +1,8 @@
 //! Volume scattering along a segment (step 3a of the module docs of
-//! [`super`]): free-flight events at the rate of the medium's scatterer grid,
-//! each scatterer connected to the receivers.
+//! [`super`]): free-flight events at the rate of a scatterer grid, each
+//! scatterer connected to the receivers. Two kinds of field: an object's
+//! material's, along a segment inside the object, and a hollow cylinder's
+//! lumen's, along the part of a segment that crosses the lumen.
 
 use super::context::PathCtx;
 use super::Deposit;
@@ -14,41 +16,72 @@ use usray_geometry::{MediumStack, Ray, Vec3};
 /// densities the expected count is far below).
 const MAX_VOLUME_EVENTS: u32 = 256;
 
+/// A field of scatterers met along a segment: its grid and, in `T`, the
+/// density and strength that weight each event.
+pub(super) struct Scatterers<T> {
+    pub field: ScattererField,
+    pub density_per_mm3: T,
+    pub strength: T,
+}
+
+impl<T: Real> Scatterers<T> {
+    /// The field of `key` with `density_per_mm3` and `strength`, or `None` when
+    /// either is zero (no events).
+    pub fn new(key: u64, density_per_mm3: T, strength: T) -> Option<Self> {
+        if strength.value() == 0.0 {
+            return None;
+        }
+        let field = ScattererField::keyed(key, density_per_mm3.value())?;
+        Some(Self {
+            field,
+            density_per_mm3,
+            strength,
+        })
+    }
+}
+
+/// Where a segment runs: its medium (speed and attenuation), the medium stack
+/// and the span `[s₀, s₁]` (m along `dir` from `origin`) the field fills.
+pub(super) struct Span<'a, T> {
+    pub medium: &'a MaterialT<T>,
+    pub stack: MediumStack,
+    pub origin: Vec3<T>,
+    pub dir: Vec3<T>,
+    pub s: (f64, f64),
+}
+
 impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
-    /// Volume scatterers along a segment of length `len` from `origin` along `dir`
-    /// in `medium` (inside object `obj`), path amplitude `w`, attenuation
-    /// exponent `beta` and time `tau` at origin.
+    /// The scatterers of `src` along `span`, path amplitude `w`, attenuation
+    /// exponent `beta` and time `tau` at the segment's origin.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(super) fn volume(
         &mut self,
-        obj: usize,
-        medium: &MaterialT<T>,
-        stack: MediumStack,
-        origin: Vec3<T>,
-        dir: Vec3<T>,
-        len: f64,
+        src: &Scatterers<T>,
+        span: &Span<'_, T>,
         w: T,
         beta: T,
         tau: T,
         sampler: &PathSampler,
         bounce: u32,
     ) {
-        let Some(field) = ScattererField::new(obj, medium.scatterer_density_per_mm3.value()) else {
-            return;
-        };
-        if medium.scatterer_strength.value() == 0.0 {
-            return;
-        }
+        let Span {
+            medium,
+            stack,
+            origin,
+            dir,
+            s: (s0, s1),
+        } = *span;
+        let field = &src.field;
         // √(ρ/ρ_g)·(1 mm/h)²: the density's (differentiable) share of each
         // event's amplitude, and the cell's cross-section (see ScattererField).
-        let density_weight = field.event_weight(medium.scatterer_density_per_mm3);
+        let density_weight = field.event_weight(src.density_per_mm3);
         let mu = 1.0 / field.cell_m;
-        let mut s = 0.0;
+        let mut s = s0;
         for k in 0..MAX_VOLUME_EVENTS {
             let u = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k);
             s += -(1.0 - u).ln() / mu;
-            if s >= len {
+            if s >= s1 {
                 return;
             }
             let on_line = origin.to_f64() + dir.to_f64().scale(s);
@@ -62,8 +95,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 along,
             );
             let (a_q, beta_q) = (w * k_q, beta + b_q);
-            let f = (medium.scatterer_strength * density_weight)
-                .scale(g / (4.0 * core::f64::consts::PI));
+            let f = (src.strength * density_weight).scale(g / (4.0 * core::f64::consts::PI));
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
             for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {

@@ -317,6 +317,8 @@ pub const PARAMETERS: &[Declaration] = &[
     row(S::Object, F::Center, "center_m", true, Geo, R::Length, No),
     row(S::Object, F::Radius, "radius_m", false, Geo, R::Length, No),
     row(S::Object, F::Thickness, "thickness_m", false, Mat, R::Wall, No),
+    row(S::Object, F::ScattererDensity, "lumen_scatterer_density_per_mm3", false, Mat, R::ScattererDensity, No),
+    row(S::Object, F::ScattererStrength, "lumen_scatterer_strength", false, Mat, R::ScattererStrength, No),
     row(S::Object, F::ZTop, "z_top_m", false, Geo, R::Length, No),
     row(S::Object, F::ZBottom, "z_bottom_m", false, Geo, R::Length, No),
     row(S::Object, F::Normal, "normal", true, Geo, R::Other, No),

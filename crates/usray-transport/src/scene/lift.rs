@@ -35,6 +35,66 @@ pub struct MaterialT<T> {
 pub struct ObjectT<T> {
     /// The object's material.
     pub material: MaterialT<T>,
+    /// A hollow cylinder's lumen scatterers, if the scene gives it some.
+    pub lumen: Option<LumenT<T>>,
+}
+
+/// The scatterers in a hollow cylinder's lumen (`lumen_scatterer_*` keys): a
+/// [`crate::effects::ScattererField`] restricted to the disc `ρ < r − t` about
+/// the tube's axis (along `y`), in whatever medium fills the lumen — the
+/// medium around the tube, so the tracer visits them on segments whose medium
+/// is `enclosing`. The disc's edge is a value: like the scatterer grid, the
+/// support is not differentiated; the strength and density are.
+#[derive(Clone, Copy, Debug)]
+pub struct LumenT<T> {
+    /// The tube's axis point `(x, z)`, m.
+    pub axis_xz_m: [f64; 2],
+    /// The lumen's radius `r − t`, m.
+    pub radius_m: f64,
+    /// The object whose material fills the lumen (the innermost object holding
+    /// the tube's wall, "later is inside"), `None` for the background medium.
+    pub enclosing: Option<usize>,
+    /// Scatterers per mm³.
+    pub scatterer_density_per_mm3: T,
+    /// Scatterer amplitude strength (dimensionless).
+    pub scatterer_strength: T,
+}
+
+impl<T> LumenT<T> {
+    /// The part `[s₀, s₁] ⊂ [0, len]` of the segment `origin + s·dir` (m, `dir`
+    /// a unit vector) inside the lumen's disc, if any: the roots of
+    /// `|(o + s d) − a|² = ρ²` in the `x`–`z` plane.
+    ///
+    /// ```
+    /// use usray_transport::scene::LumenT;
+    /// let l = LumenT { axis_xz_m: [0.0, 0.01], radius_m: 0.002, enclosing: None,
+    ///                  scatterer_density_per_mm3: 5.0, scatterer_strength: 0.1 };
+    /// let (s0, s1) = l.chord([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 1.0).unwrap();
+    /// assert!((s0 - 0.008).abs() < 1e-15 && (s1 - 0.012).abs() < 1e-15);
+    /// assert!(l.chord([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 0.005).is_none()); // ends before
+    /// assert!(l.chord([0.003, 0.0, 0.0], [0.0, 0.0, 1.0], 1.0).is_none()); // passes by
+    /// ```
+    pub fn chord(&self, origin: [f64; 3], dir: [f64; 3], len: f64) -> Option<(f64, f64)> {
+        let (rx, rz) = (origin[0] - self.axis_xz_m[0], origin[2] - self.axis_xz_m[1]);
+        let a = dir[0] * dir[0] + dir[2] * dir[2];
+        let b = rx * dir[0] + rz * dir[2];
+        let c = rx * rx + rz * rz - self.radius_m * self.radius_m;
+        let (s0, s1) = if a <= 1e-300 {
+            // Along the axis: inside throughout or not at all.
+            if c >= 0.0 {
+                return None;
+            }
+            (0.0, len)
+        } else {
+            let disc = b * b - a * c;
+            if disc <= 0.0 {
+                return None;
+            }
+            let q = disc.sqrt();
+            (((-b - q) / a).max(0.0), ((-b + q) / a).min(len))
+        };
+        (s1 > s0).then_some((s0, s1))
+    }
 }
 
 /// A scene's numbers in `T` (CONTRACT §1 frame, SI units): the input of the
@@ -218,6 +278,32 @@ impl Scene {
             added.map_err(|e| gerr(&e))?;
             objects.push(ObjectT {
                 material: material(&|field| ParamKey::material(&o.material, field), true),
+                lumen: None,
+            });
+        }
+        // The lumens, once every object is placed (their enclosing object may
+        // come earlier in the file).
+        for (oi, o) in self.objects.iter().enumerate() {
+            let (Some(r), Some(t), Some(_), Some(_)) = (
+                o.radius_m,
+                o.thickness_m,
+                o.lumen_scatterer_density_per_mm3,
+                o.lumen_scatterer_strength,
+            ) else {
+                continue;
+            };
+            let [x, _, z] = o.center_m;
+            // A point in the middle of the wall: the objects holding it other
+            // than the tube hold the tube; the innermost fills its lumen.
+            let in_wall = [x + r - 0.5 * t, 0.0, z];
+            let enclosing = geometry.containing(in_wall).into_iter().rfind(|&j| j != oi);
+            let k = |field| get(ParamKey::object(&o.name, field));
+            objects[oi].lumen = Some(LumenT {
+                axis_xz_m: [x, z],
+                radius_m: r - t,
+                enclosing,
+                scatterer_density_per_mm3: k(Field::ScattererDensity),
+                scatterer_strength: k(Field::ScattererStrength),
             });
         }
         let probe = |field| get(ParamKey::probe(field));

@@ -16,7 +16,7 @@ mod schema;
 mod slots;
 
 pub use key::{Field, ImagingRole, Owner, ParamGroup, ParamKey};
-pub use lift::{MaterialT, ObjectT, SceneT};
+pub use lift::{LumenT, MaterialT, ObjectT, SceneT};
 pub use schema::{
     limits, Acquisition, Emission, Imaging, Material, Medium, Object, Probe, Sampler, ShapeKind,
     TransmitSpec,

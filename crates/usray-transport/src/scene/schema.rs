@@ -292,6 +292,16 @@ pub struct Object {
     /// Wall thickness of a hollow cylinder, metres (effect `wall_thickness`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thickness_m: Option<f64>,
+    /// Sub-resolution scatterers per mm³ in a hollow cylinder's lumen (blood in
+    /// a vessel: effect `volume_scattering`). The lumen holds the medium around
+    /// the tube (its speed and attenuation); these scatterers sit in it, inside
+    /// the wall's inner radius only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lumen_scatterer_density_per_mm3: Option<f64>,
+    /// Amplitude strength of the lumen's scatterers (as a material's
+    /// `scatterer_strength`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lumen_scatterer_strength: Option<f64>,
     /// Slab top depth, metres.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub z_top_m: Option<f64>,
@@ -531,6 +541,16 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 Ok(())
             }
         };
+        let forbid_lumen = || {
+            forbid(
+                "lumen_scatterer_density_per_mm3",
+                o.lumen_scatterer_density_per_mm3.is_some(),
+            )?;
+            forbid(
+                "lumen_scatterer_strength",
+                o.lumen_scatterer_strength.is_some(),
+            )
+        };
         match o.shape {
             ShapeKind::Cylinder | ShapeKind::Sphere => {
                 let r = need("radius_m", o.radius_m)?;
@@ -547,6 +567,24 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                             &k("thickness_m"),
                             &format!("expected 0 < thickness_m < radius_m = {r}, found {t}"),
                         );
+                    }
+                }
+                let lumen = [
+                    (
+                        "lumen_scatterer_density_per_mm3",
+                        o.lumen_scatterer_density_per_mm3,
+                    ),
+                    ("lumen_scatterer_strength", o.lumen_scatterer_strength),
+                ];
+                for (leaf, v) in lumen {
+                    if let Some(v) = v {
+                        if o.thickness_m.is_none() {
+                            return err(
+                                &k(leaf),
+                                "a lumen needs a hollow cylinder (shape cylinder with thickness_m); remove it",
+                            );
+                        }
+                        nonneg(&k(leaf), v)?;
                     }
                 }
                 forbid("z_top_m", o.z_top_m.is_some())?;
@@ -567,6 +605,7 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 }
                 forbid("radius_m", o.radius_m.is_some())?;
                 forbid("thickness_m", o.thickness_m.is_some())?;
+                forbid_lumen()?;
                 forbid("path", o.path.is_some())?;
                 forbid("normal", o.normal.is_some())?;
                 forbid("rotation_deg", o.rotation_deg.is_some())?;
@@ -580,6 +619,7 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 }
                 forbid("radius_m", o.radius_m.is_some())?;
                 forbid("thickness_m", o.thickness_m.is_some())?;
+                forbid_lumen()?;
                 forbid("z_top_m", o.z_top_m.is_some())?;
                 forbid("z_bottom_m", o.z_bottom_m.is_some())?;
                 forbid("path", o.path.is_some())?;
@@ -602,6 +642,7 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 }
                 forbid("radius_m", o.radius_m.is_some())?;
                 forbid("thickness_m", o.thickness_m.is_some())?;
+                forbid_lumen()?;
                 forbid("z_top_m", o.z_top_m.is_some())?;
                 forbid("z_bottom_m", o.z_bottom_m.is_some())?;
                 forbid("normal", o.normal.is_some())?;

@@ -71,6 +71,8 @@ macro_rules! slot {
                     F::Center => at!(o.center_m),
                     F::Radius => o.radius_m.$as_(),
                     F::Thickness => o.thickness_m.$as_(),
+                    F::ScattererDensity => o.lumen_scatterer_density_per_mm3.$as_(),
+                    F::ScattererStrength => o.lumen_scatterer_strength.$as_(),
                     F::ZTop => o.z_top_m.$as_(),
                     F::ZBottom => o.z_bottom_m.$as_(),
                     F::Normal => match &$($m)? o.normal {
