@@ -12,13 +12,23 @@ use usray_transport::{Field, ParamKey, Scene};
 /// strength is what is scored and fitted.
 pub(crate) const SCATTERER_DENSITY_PER_MM3: f64 = 5.0;
 
-/// Onsets of a `volume_scattering` candidate's strength (range 0–0.7 at
-/// [`SCATTERER_DENSITY_PER_MM3`]): a faint speckle first, then ×3 and ×9. A
+/// Onsets of a `volume_scattering` candidate's strength (range
+/// 0–[`SCATTERER_STRENGTH_MAX`] at [`SCATTERER_DENSITY_PER_MM3`]): a faint
+/// speckle first, then ×3 and ×9. A
 /// speckle much fainter than the measured one lies below the display's floor,
 /// where the clip map's derivative is zero (paper eq. clip_grad) and the loss
 /// is flat: k-Wave's lumen speckle at about −25 dB scored 0.001 from 0.035
 /// alone. The best by loss is scored, as for the sound speed.
 pub(crate) const SCATTERER_STRENGTH_ONSETS: [f64; 3] = [0.035, 0.1, 0.3];
+
+/// Largest strength of a `volume_scattering` candidate. Power per volume goes
+/// as ρ·strength² (`ScattererField`); what a B-mode shows is the speckle
+/// against the scene's brightest echo, so the strength that matters depends on
+/// the scene's reflectors. Behind the k-Wave ring's weak wall (R = 0.09,
+/// `bench/kwave/g1.toml`) 0.7 makes a lumen speckle at about −30 dB, and its
+/// refit to k-Wave's lumen speckle stopped at 0.7 when that was the bound;
+/// 2 reaches a speckle as bright as such a wall's echo.
+pub(crate) const SCATTERER_STRENGTH_MAX: f64 = 2.0;
 
 /// Largest depth gain the `depth_gain` candidate may take, dB/cm: the two-way
 /// attenuation `2αf_c` of 1 dB/(cm·MHz) at 5 MHz.
@@ -300,14 +310,13 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
 /// The `volume_scattering` candidate of the field whose strength and density
 /// are `strength` and `density`: switched on at [`SCATTERER_DENSITY_PER_MM3`],
 /// its strength scored from [`SCATTERER_STRENGTH_ONSETS`] and refitted in
-/// 0–0.7 (power per volume ρ·strength², `ScattererField`: 0.7 at 5 per mm³ is
-/// a speckle as bright as a strong specular echo).
+/// 0–[`SCATTERER_STRENGTH_MAX`].
 fn volume_scattering(strength: ParamKey, density: ParamKey) -> Candidate {
     Candidate {
         effect: "volume_scattering".into(),
         key: strength,
         onsets: SCATTERER_STRENGTH_ONSETS.to_vec(),
-        range: (0.0, 0.7),
+        range: (0.0, SCATTERER_STRENGTH_MAX),
         two_sided: false,
         null: Some(0.0),
         fixed: vec![(density, SCATTERER_DENSITY_PER_MM3)],

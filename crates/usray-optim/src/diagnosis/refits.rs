@@ -41,7 +41,7 @@ struct Refit {
 /// narrow basin), but for an effect whose null is the bottom of its range a
 /// quarter of the start's distance from it, between a quarter of that and
 /// that. Otherwise a start near the null (a faint speckle scored best at 0.035
-/// of a 0–0.7 strength) is one step from the bound, where the clip map's
+/// of a 0–2 strength) is one step from the bound, where the clip map's
 /// derivative is zero (paper eq. clip_grad) and the effect, switched off,
 /// could never come back.
 fn refit_learning_rate(c: &Candidate, start: f64) -> f64 {
