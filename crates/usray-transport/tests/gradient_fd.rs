@@ -154,52 +154,37 @@ fn sampling_dependent_parameters_match_finite_differences() {
 #[test]
 fn scatterer_density_and_strength_match_finite_differences() {
     // Volume scattering inside the cylinder at 5 per mm³ (grid 8 per mm³, each
-    // amplitude ×√(5/8)): the density enters through that weight, smoothly
-    // between powers of two. Both are linear or square-root in θ over the step:
-    // rel 1e-7 as for attenuation.
-    let scene = scene_0deg(
-        "cylinder.toml",
-        CYL_ANGLES,
-        &[(
+    // amplitude ×√(5/8)), and in the ring's lumen (ρ < 4 mm, in the water: the
+    // same estimator on the chord of each segment through the lumen). The
+    // density enters through that weight, smoothly between powers of two. Both
+    // are linear or square-root in θ over the step: rel 1e-7 as for attenuation.
+    let cases = [
+        (
+            "cylinder.toml",
+            CYL_ANGLES,
             "roughness = 0.3",
             "roughness = 0.3\nscatterer_density_per_mm3 = 5.0\nscatterer_strength = 0.3",
-        )],
-    );
-    let r = check(
-        &scene,
-        &[
-            ("materials.target.scatterer_density_per_mm3", 1e-7),
-            ("materials.target.scatterer_strength", 1e-7),
-        ],
-    );
-    for (i, (ad, fd, rel)) in r.iter().enumerate() {
-        assert!(*ad != 0.0, "parameter {i}: zero gradient");
-        assert!(*rel < 1e-5, "parameter {i}: AD {ad} FD {fd} rel {rel}");
-    }
-}
-
-#[test]
-fn lumen_scatterer_density_and_strength_match_finite_differences() {
-    // Scatterers in the ring's lumen (ρ < 4 mm, in the water): the same
-    // estimator as a material's, on the chord of each segment through the
-    // lumen; the density and strength enter as for a material (rel 1e-7).
-    let scene = scene_0deg(
-        "ring.toml",
-        "angles_deg = [-10.0, -5.0, 0.0, 5.0, 10.0]",
-        &[(
+            "materials.target.",
+        ),
+        (
+            "ring.toml",
+            "angles_deg = [-10.0, -5.0, 0.0, 5.0, 10.0]",
             "material = \"wall\"",
             "material = \"wall\"\nlumen_scatterer_density_per_mm3 = 5.0\nlumen_scatterer_strength = 0.3",
-        )],
-    );
-    let r = check(
-        &scene,
-        &[
-            ("objects.tube.lumen_scatterer_density_per_mm3", 1e-7),
-            ("objects.tube.lumen_scatterer_strength", 1e-7),
-        ],
-    );
-    for (i, (ad, fd, rel)) in r.iter().enumerate() {
-        assert!(*ad != 0.0, "parameter {i}: zero gradient");
-        assert!(*rel < 1e-5, "parameter {i}: AD {ad} FD {fd} rel {rel}");
+            "objects.tube.lumen_",
+        ),
+    ];
+    for (name, angles, key, with, prefix) in cases {
+        let scene = scene_0deg(name, angles, &[(key, with)]);
+        let density = format!("{prefix}scatterer_density_per_mm3");
+        let strength = format!("{prefix}scatterer_strength");
+        let r = check(&scene, &[(&density, 1e-7), (&strength, 1e-7)]);
+        for (i, (ad, fd, rel)) in r.iter().enumerate() {
+            assert!(*ad != 0.0, "{name} parameter {i}: zero gradient");
+            assert!(
+                *rel < 1e-5,
+                "{name} parameter {i}: AD {ad} FD {fd} rel {rel}"
+            );
+        }
     }
 }
