@@ -55,14 +55,18 @@ fn lumen_speckle_fills_the_lumen_and_nothing_else() {
     // The lumen on the axis spans 9.5–14.5 mm; the tube 9–15 mm. A scatterer
     // lies within a cell (0.79 mm at 2 per mm³) of the point that selected it.
     let inside = energies(&d, &[10.5e-3], 3e-3)[0];
-    let above = energies(&d, &[4e-3], 3.5e-3)[0];
-    let below = energies(&d, &[17e-3], 5e-3)[0];
+    // The earliest: a scatterer a cell diagonal above the lumen's top (8.1 mm)
+    // under an element, less the pulse's half-support: nothing before 7.0 mm.
+    let above = energies(&d, &[4e-3], 2.5e-3)[0];
+    // The latest echo: a scatterer up to a cell diagonal (1.4 mm) below the
+    // lumen's bottom, at 15.9 mm, heard 12.1 mm off to the side by the array's
+    // end element — round trip (15.9 + √(12.1² + 15.9²))/2 = 18.0 mm of depth —
+    // plus the pulse's half-support (4√σ = 1.44 µs, 1.1 mm): nothing past 19.1 mm.
+    let below = energies(&d, &[19.5e-3], 5e-3)[0];
     eprintln!("lumen speckle energy: inside {inside:.3e}, above {above:.3e}, below {below:.3e}");
     assert!(inside > 0.0);
     assert_eq!(above, 0.0, "echo above the tube");
-    // Below it, only the tails of the deepest scatterers' echoes received at
-    // the array's far end.
-    assert!(below < 1e-9 * inside, "echo below the tube");
+    assert_eq!(below, 0.0, "echo below the tube");
     // Without the keys, or at zero strength, the matched tube is silent, and the
     // zero strength renders the scene without the keys bit for bit.
     let none = rendered(&scene(&tube(""), 50));

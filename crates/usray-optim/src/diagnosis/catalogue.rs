@@ -92,27 +92,23 @@ impl Candidate {
 /// `imaging.sound_speed_m_s`).
 fn switch_on(s: &mut Scene, key: &ParamKey, value: f64) -> Result<(), OptimError> {
     match (&key.owner, key.field) {
-        (Owner::Object(name), Field::Thickness) => {
+        (
+            Owner::Object(name),
+            field @ (Field::Thickness | Field::ScattererStrength | Field::ScattererDensity),
+        ) => {
             let o = s
                 .objects
                 .iter_mut()
                 .find(|o| o.name == *name)
                 .ok_or_else(|| OptimError::Diagnosis(format!("no object `{name}` for {key}")))?;
-            o.thickness_m = Some(value);
+            let slot = match field {
+                Field::Thickness => &mut o.thickness_m,
+                Field::ScattererStrength => &mut o.lumen_scatterer_strength,
+                _ => &mut o.lumen_scatterer_density_per_mm3,
+            };
+            *slot = Some(value);
         }
         (Owner::Imaging, Field::SoundSpeed) => s.imaging.sound_speed_m_s = Some(value),
-        (Owner::Object(name), Field::ScattererStrength | Field::ScattererDensity) => {
-            let o = s
-                .objects
-                .iter_mut()
-                .find(|o| o.name == *name)
-                .ok_or_else(|| OptimError::Diagnosis(format!("no object `{name}` for {key}")))?;
-            if key.field == Field::ScattererStrength {
-                o.lumen_scatterer_strength = Some(value);
-            } else {
-                o.lumen_scatterer_density_per_mm3 = Some(value);
-            }
-        }
         _ => s.set(key, value)?,
     }
     s.validate()?;

@@ -90,17 +90,16 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     self.volume(&src, &span((0.0, seg_len)), w, beta, time, &sampler, bounce);
                 }
             }
-            for (k, o) in st.objects.iter().enumerate() {
-                let Some(lumen) = o.lumen.filter(|l| l.enclosing == stack.top()) else {
+            for lumen in st.lumens.iter().filter(|l| l.enclosing == stack.top()) {
+                let Some(s) = lumen.chord(origin.value(), dir.value(), seg_len) else {
                     continue;
                 };
                 let src = Scatterers::new(
-                    ScattererField::lumen_key(k),
+                    ScattererField::lumen_key(lumen.object),
                     lumen.scatterer_density_per_mm3,
                     lumen.scatterer_strength,
                 );
-                let chord = lumen.chord(origin.value(), dir.value(), seg_len);
-                if let (Some(src), Some(s)) = (src, chord) {
+                if let Some(src) = src {
                     self.volume(&src, &span(s), w, beta, time, &sampler, bounce);
                 }
             }

@@ -47,10 +47,12 @@ impl Horizon {
         let delta = st
             .objects
             .iter()
-            .flat_map(|o| {
-                let lumen = o.lumen.map(|l| l.scatterer_density_per_mm3.value());
-                std::iter::once(o.material.scatterer_density_per_mm3.value()).chain(lumen)
-            })
+            .map(|o| o.material.scatterer_density_per_mm3.value())
+            .chain(
+                st.lumens
+                    .iter()
+                    .map(|l| l.scatterer_density_per_mm3.value()),
+            )
             .filter_map(|density| ScattererField::new(0, density))
             .map(|f| 3f64.sqrt() * f.cell_m)
             .fold(0.0, f64::max);

@@ -35,8 +35,6 @@ pub struct MaterialT<T> {
 pub struct ObjectT<T> {
     /// The object's material.
     pub material: MaterialT<T>,
-    /// A hollow cylinder's lumen scatterers, if the scene gives it some.
-    pub lumen: Option<LumenT<T>>,
 }
 
 /// The scatterers in a hollow cylinder's lumen (`lumen_scatterer_*` keys): a
@@ -47,6 +45,8 @@ pub struct ObjectT<T> {
 /// support is not differentiated; the strength and density are.
 #[derive(Clone, Copy, Debug)]
 pub struct LumenT<T> {
+    /// The tube's index among the scene's objects (it keys the field).
+    pub object: usize,
     /// The tube's axis point `(x, z)`, m.
     pub axis_xz_m: [f64; 2],
     /// The lumen's radius `r − t`, m.
@@ -67,7 +67,7 @@ impl<T> LumenT<T> {
     ///
     /// ```
     /// use usray_transport::scene::LumenT;
-    /// let l = LumenT { axis_xz_m: [0.0, 0.01], radius_m: 0.002, enclosing: None,
+    /// let l = LumenT { object: 0, axis_xz_m: [0.0, 0.01], radius_m: 0.002, enclosing: None,
     ///                  scatterer_density_per_mm3: 5.0, scatterer_strength: 0.1 };
     /// let (s0, s1) = l.chord([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 1.0).unwrap();
     /// assert!((s0 - 0.008).abs() < 1e-15 && (s1 - 0.012).abs() < 1e-15);
@@ -105,6 +105,9 @@ pub struct SceneT<T> {
     pub medium: MaterialT<T>,
     /// Objects, indexed like the geometry's objects and the scene's `[[objects]]`.
     pub objects: Vec<ObjectT<T>>,
+    /// The hollow cylinders' lumens that hold scatterers (usually none: the
+    /// tracer visits this list on every segment).
+    pub lumens: Vec<LumenT<T>>,
     /// The geometry (hit finding in values, hit quantities in `T`).
     pub geometry: Geometry<T>,
     /// Number of elements.
@@ -278,11 +281,11 @@ impl Scene {
             added.map_err(|e| gerr(&e))?;
             objects.push(ObjectT {
                 material: material(&|field| ParamKey::material(&o.material, field), true),
-                lumen: None,
             });
         }
         // The lumens, once every object is placed (their enclosing object may
         // come earlier in the file).
+        let mut lumens = Vec::new();
         for (oi, o) in self.objects.iter().enumerate() {
             let (Some(r), Some(t), Some(_), Some(_)) = (
                 o.radius_m,
@@ -298,7 +301,8 @@ impl Scene {
             let in_wall = [x + r - 0.5 * t, 0.0, z];
             let enclosing = geometry.containing(in_wall).into_iter().rfind(|&j| j != oi);
             let k = |field| get(ParamKey::object(&o.name, field));
-            objects[oi].lumen = Some(LumenT {
+            lumens.push(LumenT {
+                object: oi,
                 axis_xz_m: [x, z],
                 radius_m: r - t,
                 enclosing,
@@ -312,6 +316,7 @@ impl Scene {
         Ok(SceneT {
             medium: material(&ParamKey::medium, false),
             objects,
+            lumens,
             geometry,
             n_elements: self.probe.n_elements,
             array,
