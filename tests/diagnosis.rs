@@ -169,8 +169,8 @@ fn every_candidate_at_its_null_renders_the_base_model() {
 /// The paper's case: data from a ring whose wall is a draw of 0.25–0.4 × the
 /// radius, diagnosed against the plain cylinder. Measured: verdict
 /// `wall_thickness`, held-out shrink 0.68, wall 1.895 mm found for 1.893 mm, radius
-/// 5.040 mm calibrated and 4.993 mm with the wall (true 5); scoring 3.5 s against
-/// 5.1 s for one refit.
+/// 5.040 mm calibrated and 4.993 mm with the wall (true 5). (Step times are
+/// reported, not asserted: docs/diagnosis.md has them at full size.)
 #[test]
 fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
     let (base, wall, r) = diagnose_draw(0, KINDS[0]);
@@ -217,8 +217,6 @@ fn thick_ring_against_a_solid_cylinder_names_wall_thickness() {
         (r_after - r_true).abs() < (r_cal - r_true).abs(),
         "radius bias did not shrink: calibrated {r_cal}, with the wall {r_after}, true {r_true}"
     );
-    // Scoring all candidates costs less than one refit.
-    assert!(r.timings.scoring_s < r.timings.refits_s / options(12, 20).1.confirm_top as f64);
     // The shrink is measured on several held-out seeds and carries its standard
     // error; the wall beats the null refit (the base parameters refitted alone)
     // by more than the naming threshold, by several standard errors, and removes
