@@ -3,7 +3,8 @@ unlike the model the diagnosis uses.
 
 Each case is a base scene (a1_tube.toml, a2_sphere.toml, a3_layered.toml) with at most one
 effect switched on. Its "measured" data are rendered with 10x the model's rays (200 against
-20), the independent sampler (the model: stratified), 6 bounces (the model: 4), seeds from
+20), the independent sampler (the model: stratified), 8 bounces (the model: 4, or 6 where
+a solid cylinder is a wall candidate: usray_optim::diagnosis_bounces), seeds from
 another family (90001 + case index; the model's fits use 1 and its held-out seeds 2 + k 2^33),
 and white measurement noise at -50 dB of the largest channel sample (seeded, numpy).
 
@@ -15,7 +16,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RENDER = {"rays_per_element = 20": "rays_per_element = 200",
-          "max_bounces = 4": "max_bounces = 6"}
+          "max_bounces = 4": "max_bounces = 8"}
 NOISE_DB = -50.0
 
 def acq(extra):

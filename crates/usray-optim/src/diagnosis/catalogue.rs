@@ -42,6 +42,45 @@ pub(crate) const PULSE_LENGTH_ONSETS: [f64; 4] = [1.0, 0.7, 1.4, 2.0];
 /// its range per step (the calibrated parameters keep their groups' rates).
 pub(crate) const EFFECT_LEARNING_RATE: f64 = 0.05;
 
+/// Interactions a path gains when a `wall_thickness` candidate hollows a solid
+/// cylinder: one crossing of the near wall's inner surface and one of the far
+/// wall's inner surface before the far outer surface is reached (a path that
+/// met the solid cylinder twice meets the tube four times).
+pub(crate) const WALL_EXTRA_BOUNCES: u32 = 2;
+
+/// The bounce limit a diagnosis renders every model at: the scene's
+/// `acquisition.max_bounces`, raised by [`WALL_EXTRA_BOUNCES`] when the
+/// catalogue holds a `wall_thickness` candidate (a solid cylinder), capped at
+/// the schema's largest. The calibration, the null refit and every candidate
+/// use it alike, so they compare on equal terms.
+///
+/// Why: a branch stops after `max_bounces` interactions, transmissions
+/// included (`usray_transport::integrator`, step 6). At the limit that just
+/// reaches a solid cylinder's far side, a hollowed one loses its far wall, and
+/// the true wall renders worse than no wall: a 1 mm wall in a 3 mm rod under
+/// a 2 mm layer (`bench/tier_a/a3_layered.toml`, 4 bounces) had a loss of
+/// 0.0539 against the solid rod's 0.0501; at 6 bounces, 0.0332 against 0.0500.
+///
+/// ```
+/// use usray_optim::diagnosis_bounces;
+/// let mut s = usray_transport::Scene::load("../../scenes/cylinder.toml").unwrap();
+/// s.acquisition.max_bounces = 4;
+/// assert_eq!(diagnosis_bounces(&s), 6); // a solid cylinder: a wall candidate
+/// s.objects[0].thickness_m = Some(1e-3);
+/// assert_eq!(diagnosis_bounces(&s), 4); // already a tube: none
+/// ```
+pub fn diagnosis_bounces(scene: &Scene) -> u32 {
+    let limit = scene.acquisition.max_bounces;
+    let has_wall_candidate = catalogue(scene)
+        .iter()
+        .any(|c| c.effect == "wall_thickness");
+    if has_wall_candidate {
+        (limit + WALL_EXTRA_BOUNCES).min(usray_transport::scene::limits::MAX_BOUNCES)
+    } else {
+        limit
+    }
+}
+
 /// One candidate unmodelled effect: how to switch it on and which parameter
 /// carries its strength.
 #[derive(Clone, Debug, PartialEq)]

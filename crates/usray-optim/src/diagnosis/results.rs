@@ -235,6 +235,10 @@ pub struct Diagnosis {
     /// data (other frames, [`super::DiagnoseOptions::held_out_measured`]) rather than
     /// the fitted data.
     pub held_out_frames: bool,
+    /// The bounce limit every model was rendered at
+    /// ([`super::diagnosis_bounces`]: the scene's, or 2 more when a solid
+    /// cylinder is a `wall_thickness` candidate).
+    pub max_bounces: u32,
     /// Where each step's time went.
     pub timings: Timings,
     /// The full residual analysis of the calibrated model (kinds of residual).

@@ -4,7 +4,7 @@
 use super::calibration::{
     calibrate_within_budget, calibration_spec, default_free_params, FreeParam,
 };
-use super::catalogue::catalogue;
+use super::catalogue::{catalogue, diagnosis_bounces};
 use super::options::DiagnoseOptions;
 use super::parameter_candidates::parameter_candidates;
 use super::refits::{null_refit, refit_leading, Control};
@@ -37,6 +37,19 @@ pub fn diagnose(
 ) -> Result<Diagnosis, OptimError> {
     let held_data = opts.held_out_data(measured)?;
     let started = Instant::now();
+    // Every model renders at the bounce limit the candidates need.
+    let max_bounces = diagnosis_bounces(scene);
+    let raised;
+    let scene = if max_bounces == scene.acquisition.max_bounces {
+        scene
+    } else {
+        raised = {
+            let mut s = scene.clone();
+            s.acquisition.max_bounces = max_bounces;
+            s
+        };
+        &raised
+    };
     let mut timings = Timings::default();
     let free: Vec<FreeParam> = if opts.free_params.is_empty() {
         default_free_params(scene)
@@ -192,6 +205,7 @@ pub fn diagnose(
         paired: opts.paired,
         comparison: stage.setup.comparison,
         held_out_frames: opts.held_out_measured.is_some(),
+        max_bounces,
         timings,
         residual,
         calibrated_image: stage.eval.image.data,
