@@ -104,6 +104,7 @@ fn report_writes_markdown_and_json_of_every_round() {
             "paired",
             "comparison",
             "held_out_frames",
+            "max_bounces",
             "timings",
             "residual_kinds",
             "wall_seconds",
@@ -111,6 +112,17 @@ fn report_writes_markdown_and_json_of_every_round() {
         ]
     );
     assert_eq!(v["wall_seconds"], 1.5);
+    // The cylinder is solid, so a wall is a candidate and every model renders
+    // at two bounces more than the scene's; the report says so.
+    assert_eq!(v["max_bounces"], scene.acquisition.max_bounces + 2);
+    assert!(
+        md.contains(&format!(
+            "rendered at **{} bounces**, the scene's {}",
+            scene.acquisition.max_bounces + 2,
+            scene.acquisition.max_bounces
+        )),
+        "{md}"
+    );
     assert_eq!(v["verdict"]["effect"], first.verdict.effect.as_str());
     assert_eq!(v["rounds"].as_array().unwrap().len(), rounds.len());
     for (r, d) in v["rounds"].as_array().unwrap().iter().zip(&rounds) {
