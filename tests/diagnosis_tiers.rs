@@ -14,8 +14,8 @@
 use std::path::Path;
 use usray::optim::blind::{measured_image, BlindOptions, Draw};
 use usray::optim::{
-    diagnose, diagnosis_bounces, load_reference, names_an_effect, DiagnoseOptions, Diagnosis,
-    Objective,
+    catalogue, diagnose, diagnosis_bounces, load_reference, mean_and_se, names_an_effect,
+    DiagnoseOptions, Diagnosis, Objective,
 };
 use usray::transport::scene::Sampler;
 use usray::transport::{RenderOptions, Scene};
@@ -106,12 +106,12 @@ fn diagnose_unlike(base: &Scene, truth: Scene, seed: u64) -> Diagnosis {
 fn a_hollowed_rod_needs_the_diagnosis_bounce_limit() {
     let text = include_str!("../bench/tier_a/a3_layered.toml");
     let base = ci_scene(text, "a3_layered.toml");
-    let hollowed = |s: &Scene| {
-        let mut s = s.clone();
-        let rod = s.objects.iter_mut().find(|o| o.name == "rod").unwrap();
-        rod.thickness_m = Some(1e-3);
-        s
-    };
+    // The rod hollowed to its true wall, as the wall candidate does it.
+    let wall = catalogue(&base)
+        .into_iter()
+        .find(|c| c.effect == "wall_thickness")
+        .unwrap();
+    let hollowed = |s: &Scene| wall.switched_on(s, 1e-3).unwrap();
     let measured = {
         let _serial = ONE_AT_A_TIME
             .lock()
@@ -140,10 +140,8 @@ fn a_hollowed_rod_needs_the_diagnosis_bounce_limit() {
         let d: Vec<f64> = (1..=6u64)
             .map(|seed| loss(&hollowed(&base), bounces, seed) - loss(&base, bounces, seed))
             .collect();
-        let n = d.len() as f64;
-        let mean = d.iter().sum::<f64>() / n;
-        let sd = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-        (mean, sd / n.sqrt())
+        let (mean, se) = mean_and_se(&d);
+        (mean, se.unwrap())
     };
     let (at_scene, se_scene) = gain(scene_limit);
     let (at_limit, se_limit) = gain(limit);

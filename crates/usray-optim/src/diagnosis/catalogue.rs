@@ -46,13 +46,13 @@ pub(crate) const EFFECT_LEARNING_RATE: f64 = 0.05;
 /// cylinder: one crossing of the near wall's inner surface and one of the far
 /// wall's inner surface before the far outer surface is reached (a path that
 /// met the solid cylinder twice meets the tube four times).
-pub(crate) const WALL_EXTRA_BOUNCES: u32 = 2;
+const WALL_EXTRA_BOUNCES: u32 = 2;
 
 /// The bounce limit a diagnosis renders every model at: the scene's
-/// `acquisition.max_bounces`, raised by [`WALL_EXTRA_BOUNCES`] when the
-/// catalogue holds a `wall_thickness` candidate (a solid cylinder), capped at
-/// the schema's largest. The calibration, the null refit and every candidate
-/// use it alike, so they compare on equal terms.
+/// `acquisition.max_bounces` raised by the most any candidate of its catalogue
+/// needs ([`Candidate::extra_bounces`]), capped at the schema's largest. The
+/// calibration, the null refit and every candidate use it alike, so they
+/// compare on equal terms.
 ///
 /// Why: a branch stops after `max_bounces` interactions, transmissions
 /// included (`usray_transport::integrator`, step 6). At the limit that just
@@ -70,15 +70,12 @@ pub(crate) const WALL_EXTRA_BOUNCES: u32 = 2;
 /// assert_eq!(diagnosis_bounces(&s), 4); // already a tube: none
 /// ```
 pub fn diagnosis_bounces(scene: &Scene) -> u32 {
-    let limit = scene.acquisition.max_bounces;
-    let has_wall_candidate = catalogue(scene)
+    let extra = catalogue(scene)
         .iter()
-        .any(|c| c.effect == "wall_thickness");
-    if has_wall_candidate {
-        (limit + WALL_EXTRA_BOUNCES).min(usray_transport::scene::limits::MAX_BOUNCES)
-    } else {
-        limit
-    }
+        .map(Candidate::extra_bounces)
+        .max()
+        .unwrap_or(0);
+    (scene.acquisition.max_bounces + extra).min(usray_transport::scene::limits::MAX_BOUNCES)
 }
 
 /// One candidate unmodelled effect: how to switch it on and which parameter
@@ -112,6 +109,18 @@ pub struct Candidate {
 }
 
 impl Candidate {
+    /// Interactions a path may gain once this effect is switched on, which the
+    /// bounce limit must allow for ([`diagnosis_bounces`]): two for a wall
+    /// that hollows a solid cylinder (a thickness without a null), none for an
+    /// effect that changes values rather than structure.
+    pub fn extra_bounces(&self) -> u32 {
+        if self.key.field == Field::Thickness && self.null.is_none() {
+            WALL_EXTRA_BOUNCES
+        } else {
+            0
+        }
+    }
+
     /// `scene` with this effect switched on at `value` (and its fixed settings).
     ///
     /// # Errors

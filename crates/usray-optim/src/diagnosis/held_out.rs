@@ -50,7 +50,13 @@ pub(crate) fn mean(v: &[f64]) -> f64 {
 }
 
 /// Mean of per-seed values and its standard error `sd/√K` (`None` for one).
-pub(crate) fn mean_and_se(v: &[f64]) -> (f64, Option<f64>) {
+///
+/// ```
+/// let (m, se) = usray_optim::mean_and_se(&[1.0, 2.0, 3.0]);
+/// assert_eq!(m, 2.0);
+/// assert!((se.unwrap() - (1.0f64 / 3.0).sqrt()).abs() < 1e-15);
+/// ```
+pub fn mean_and_se(v: &[f64]) -> (f64, Option<f64>) {
     let m = mean(v);
     let se = (v.len() > 1).then(|| {
         let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64;

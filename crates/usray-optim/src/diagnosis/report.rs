@@ -263,8 +263,8 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         }
     )?;
     writeln!(r, "{}\n", comparison_sentence(d, base))?;
-    if d.max_bounces != base.acquisition.max_bounces {
-        writeln!(r, "Every model was rendered at **{} bounces**, the scene's {} and two more: a `wall_thickness` candidate hollows a solid cylinder, and a path then meets two more surfaces before the far wall (at the scene's limit the hollowed cylinder would lose its far wall, and a true wall would look worse than none).\n", d.max_bounces, base.acquisition.max_bounces)?;
+    if d.max_bounces > base.acquisition.max_bounces {
+        writeln!(r, "Every model was rendered at **{} bounces**, the scene's {} and {} more: a `wall_thickness` candidate hollows a solid cylinder, and a path then meets more surfaces before the far wall (at the scene's limit the hollowed cylinder would lose its far wall, and a true wall would look worse than none).\n", d.max_bounces, base.acquisition.max_bounces, d.max_bounces - base.acquisition.max_bounces)?;
     }
     if d.held_out_frames {
         writeln!(r, "Every held-out loss (the calibrated model's, each refit's, the null refit's) is measured against measured frames held out from the fit (`--held-out-frames` or `--held-out-measured`), so a refit that fits the fitted frames' own noise gains nothing there.\n")?;

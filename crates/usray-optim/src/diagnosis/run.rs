@@ -38,18 +38,10 @@ pub fn diagnose(
     let held_data = opts.held_out_data(measured)?;
     let started = Instant::now();
     // Every model renders at the bounce limit the candidates need.
-    let max_bounces = diagnosis_bounces(scene);
-    let raised;
-    let scene = if max_bounces == scene.acquisition.max_bounces {
-        scene
-    } else {
-        raised = {
-            let mut s = scene.clone();
-            s.acquisition.max_bounces = max_bounces;
-            s
-        };
-        &raised
-    };
+    let mut scene = scene.clone();
+    scene.acquisition.max_bounces = diagnosis_bounces(&scene);
+    let scene = &scene;
+    let max_bounces = scene.acquisition.max_bounces;
     let mut timings = Timings::default();
     let free: Vec<FreeParam> = if opts.free_params.is_empty() {
         default_free_params(scene)
