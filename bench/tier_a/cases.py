@@ -2,7 +2,7 @@
 unlike the model the diagnosis uses.
 
 Each case is a base scene (a1_tube.toml, a2_sphere.toml, a3_layered.toml) with at most one
-effect switched on. Its "measured" data are rendered with 10x the model's rays (200 against
+effect switched on (two in the compound cases). Its "measured" data are rendered with 10x the model's rays (200 against
 20), the independent sampler (the model: stratified), 8 bounces (the model: 4, or 6 where
 a solid cylinder is a wall candidate: usray_optim::diagnosis_bounces), seeds from
 another family (90001 + case index; the model's fits use 1 and its held-out seeds 2 + k 2^33),
@@ -39,6 +39,15 @@ CASES = {
     "a3_wall":    ("a3_layered", "wall_thickness", [("radius_m = 0.003\n", "radius_m = 0.003\nthickness_m = 1.0e-3\n")]),
     "a3_speed":   ("a3_layered", "sound_speed", [("sound_speed_m_s = 1540.0\nimpedance", "sound_speed_m_s = 1570.0\nimpedance"),
                                                  ("dynamic_range_db = 60.0\n", "dynamic_range_db = 60.0\nsound_speed_m_s = 1540.0\n")]),
+    # Compound cases (bench/tier_a/compound.tsv): two effects at once, each named by one
+    # round of the compound diagnosis. Appended, so the cases above keep their seeds.
+    "a1_wall_speed":    ("a1_tube", "wall_thickness+sound_speed",
+                         [("thickness_m = 0.8e-3", "thickness_m = 1.6e-3"),
+                          ("sound_speed_m_s = 1540.0\nimpedance", "sound_speed_m_s = 1500.0\nimpedance"),
+                          ("dynamic_range_db = 60.0\n", "dynamic_range_db = 60.0\nsound_speed_m_s = 1540.0\n")]),
+    "a2_pulse_scatter": ("a2_sphere", "pulse_length+volume_scattering",
+                         [("cycles = 3.0", "cycles = 4.5"),
+                          ("roughness = 0.3\n", "roughness = 0.3\nscatterer_density_per_mm3 = 5.0\nscatterer_strength = 0.15\n")]),
 }
 
 def truth_text(case, index):

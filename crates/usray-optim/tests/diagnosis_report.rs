@@ -128,7 +128,10 @@ fn report_writes_markdown_and_json_of_every_round() {
     for (r, d) in v["rounds"].as_array().unwrap().iter().zip(&rounds) {
         assert_eq!(r["verdict"]["effect"], d.verdict.effect.as_str());
         assert_eq!(r["loss_held_out"], d.calibrated.loss_held_out);
+        assert_eq!(r["effects"].as_array().unwrap().len(), d.effects.len());
     }
+    // Only a later round tests whether its effects add to the first round's.
+    assert!(rounds[0].effects.iter().all(|e| e.additivity.is_none()));
 }
 
 /// A report of no rounds, or against a measured image of another size, is an

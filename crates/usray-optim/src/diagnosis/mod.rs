@@ -138,7 +138,7 @@ pub(crate) use catalogue::SCATTERER_DENSITY_PER_MM3;
 pub use catalogue::{catalogue, diagnosis_bounces, Candidate};
 pub use held_out::{held_out_seed, mean_and_se};
 pub use noise_budget::{noise_exponent, rays_needed, simulation_noise_share, NoiseCheck};
-pub use options::DiagnoseOptions;
+pub use options::{DiagnoseOptions, FirstRound};
 pub use parameter_candidates::parameter_candidates;
 pub use report::Report;
 pub use results::{Calibrated, Diagnosis, EffectResult, NullRefit, Timings};

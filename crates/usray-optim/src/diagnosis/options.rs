@@ -5,7 +5,18 @@ use super::verdict::VerdictRule;
 use crate::fit::FitOptions;
 use crate::journal::Journal;
 use crate::OptimError;
+use std::collections::BTreeMap;
 use usray_transport::RenderOptions;
+
+/// What the first round of a compound diagnosis found, against which a later
+/// round tests whether an effect adds to it ([`super::EffectResult::additivity`]).
+#[derive(Clone, Debug, Default)]
+pub struct FirstRound {
+    /// Each candidate's score in the first round, by its parameter's path.
+    pub scores: BTreeMap<String, f64>,
+    /// The first round's calibrated held-out loss.
+    pub loss_held_out: f64,
+}
 
 /// Settings of a diagnosis.
 #[derive(Clone, Debug)]
@@ -84,6 +95,10 @@ pub struct DiagnoseOptions {
     /// goes ([`Journal`]; default: nowhere). Started again on the journal of
     /// a killed run, it skips what was done and ends with the same results.
     pub journal: Journal,
+    /// Set by [`super::diagnose_compound`] for a later round (default `None`,
+    /// a first round): what the first round found, for
+    /// [`super::EffectResult::additivity`].
+    pub first_round: Option<FirstRound>,
 }
 
 impl Default for DiagnoseOptions {
@@ -105,6 +120,7 @@ impl Default for DiagnoseOptions {
             smoothing_wavelengths: 0.0,
             noise_floor: false,
             journal: Journal::default(),
+            first_round: None,
         }
     }
 }

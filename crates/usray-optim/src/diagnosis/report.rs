@@ -72,8 +72,8 @@ impl Report<'_> {
     }
 
     /// `diagnosis.json` (CONTRACT §5): the first round at the top level, with
-    /// `residual_kinds` and `wall_seconds`; every round's verdict and named
-    /// effect in `rounds`.
+    /// `residual_kinds` and `wall_seconds`; every round's verdict, named
+    /// effect and ranked candidates in `rounds`.
     ///
     /// # Errors
     /// No rounds.
@@ -99,6 +99,7 @@ impl Report<'_> {
                         "noise_check": r.noise_check,
                         "loss_held_out": r.calibrated.loss_held_out,
                         "seconds": r.timings.total_s,
+                        "effects": r.effects,
                     })
                 })
                 .collect(),
@@ -380,6 +381,19 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 100.0 * round.noise_check.share,
                 round.noise_check.rays,
             )?;
+        }
+        for (i, round) in rounds.iter().enumerate().skip(1) {
+            for e in &round.effects {
+                let Some(a) = e.additivity.filter(|a| *a < round.rule.min_additivity) else {
+                    continue;
+                };
+                let score_1 = d
+                    .effects
+                    .iter()
+                    .find(|x| x.path == e.path)
+                    .map_or(0.0, |x| x.score);
+                writeln!(r, "\nRound {}: `{}` gains {:+.3} over the null refit here but scored {:.4} in the first round, {:.2} of what an effect adding to the first round's would have scored (at least {:.2} to be named): its gain appears only beside the earlier effect's refit, undoing what that refit did to the base parameters, so it is not named as a second effect.", i + 1, e.effect, e.excess.unwrap_or(0.0), score_1, a, round.rule.min_additivity)?;
+            }
         }
     }
     let t = &d.timings;

@@ -112,6 +112,17 @@ pub struct EffectResult {
     /// noise only (absent when not refitted, without a null, or when the
     /// parameter is not determined).
     pub detection_limit: Option<f64>,
+    /// In a later round of a compound diagnosis ([`super::diagnose_compound`]):
+    /// the effect's score in the first round against the score an effect that
+    /// simply adds to the first round's would have had there,
+    /// `score₁ / (excess · L_k / L₁)` with `L₁`, `L_k` the first and this
+    /// round's calibrated held-out losses (an additive effect removes the same
+    /// loss in both rounds, a share `excess · L_k / L₁` of the first round's).
+    /// Near 1 for an effect that adds; near 0 for one whose gain appears only
+    /// beside the earlier effect's refit ([`super::VerdictRule::min_additivity`]).
+    /// Absent in the first round, when not refitted or not gaining, and for a
+    /// candidate the first round did not have.
+    pub additivity: Option<f64>,
     /// Why the candidate's scoring or refit could not finish (absent when it
     /// did): the diagnosis goes on without it.
     pub failed: Option<String>,
@@ -133,7 +144,7 @@ impl EffectResult {
     ///     loss_onset: 1e-2, loss_after: Some(7e-3), shrink: Some(0.3),
     ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01), excess_spatial_std: None,
     ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
-    ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None,
+    ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, additivity: None,
     ///     failed: None,
     /// };
     /// e.params.insert(e.path.clone(), 9.999);
@@ -167,7 +178,7 @@ impl EffectResult {
     ///     held_out_losses: vec![9e-3],
     ///     params: BTreeMap::from([(path.clone(), 1.5)]),
     ///     params_std: BTreeMap::from([(path, Some(0.75))]),
-    ///     detection_limit: Some(2.25), failed: None,
+    ///     detection_limit: Some(2.25), additivity: None, failed: None,
     /// };
     /// // Found +1.5 dB/cm at a spread of 0.75: two spreads from no gain.
     /// assert_eq!(e.null_z(), Some(2.0));

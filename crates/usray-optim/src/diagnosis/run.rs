@@ -5,7 +5,7 @@ use super::calibration::{
     calibrate_within_budget, calibration_spec, default_free_params, FreeParam,
 };
 use super::catalogue::{catalogue, diagnosis_bounces};
-use super::options::DiagnoseOptions;
+use super::options::{DiagnoseOptions, FirstRound};
 use super::parameter_candidates::parameter_candidates;
 use super::refits::{null_refit, refit_leading, Control};
 use super::residual::{analyse_residual, ResidualOptions};
@@ -124,6 +124,14 @@ pub fn diagnose(
     timings.refits_s = t.elapsed().as_secs_f64() - refit_spread_s;
     timings.spread_s += refit_spread_s;
 
+    // In a later round: whether each refitted effect adds to the first round's.
+    if let Some(first) = &opts.first_round {
+        for r in &refits {
+            let e = &mut effects[r.candidate];
+            e.additivity = additivity(e, first, stage.held_loss);
+        }
+    }
+
     // Step 5: verdict.
     let refitted: Vec<EffectResult> = refits
         .iter()
@@ -206,6 +214,14 @@ pub fn diagnose(
     })
 }
 
+/// [`EffectResult::additivity`] of a refitted effect `e` in a round whose
+/// calibrated held-out loss is `loss_held_out`.
+fn additivity(e: &EffectResult, first: &FirstRound, loss_held_out: f64) -> Option<f64> {
+    let score_1 = *first.scores.get(&e.path)?;
+    let removed = e.excess.filter(|x| *x > 0.0)? * loss_held_out / first.loss_held_out;
+    Some(score_1 / removed)
+}
+
 /// Compound gaps: diagnoses `scene`; while the verdict names an effect and
 /// fewer than `rounds` rounds have run, switches the named effect on at its
 /// refitted value, adds its parameter to the calibrated ones (within its
@@ -263,7 +279,16 @@ pub fn diagnose_compound(
         if !go_on {
             break;
         }
+        let first = &out[0];
         let round = DiagnoseOptions {
+            first_round: Some(FirstRound {
+                scores: first
+                    .effects
+                    .iter()
+                    .map(|e| (e.path.clone(), e.score))
+                    .collect(),
+                loss_held_out: first.calibrated.loss_held_out,
+            }),
             free_params: free,
             budget_s,
             journal: opts.journal.scoped(&format!("round {round_no}")),
@@ -287,4 +312,55 @@ pub fn diagnose_compound(
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeMap;
+
+    fn refit(path: &str, excess: Option<f64>) -> EffectResult {
+        EffectResult {
+            effect: "e".into(),
+            path: path.into(),
+            score: 0.0,
+            onset: 0.0,
+            range: [0.0, 1.0],
+            null: Some(0.0),
+            gradient: 0.0,
+            loss_onset: 1.0,
+            loss_after: None,
+            shrink: None,
+            shrink_std: None,
+            excess,
+            excess_std: None,
+            excess_spatial_std: None,
+            gap_explained: None,
+            held_out_losses: vec![],
+            params: BTreeMap::new(),
+            params_std: BTreeMap::new(),
+            detection_limit: None,
+            additivity: None,
+            failed: None,
+        }
+    }
+
+    /// An effect that removes the same loss in both rounds has additivity 1:
+    /// excess 0.25 of a second-round loss 0.8 is 0.2 of the first round's 1.0,
+    /// which is what it scored there.
+    #[test]
+    fn additivity_is_the_first_round_score_over_the_loss_the_effect_removes() {
+        let first = FirstRound {
+            scores: BTreeMap::from([("a".to_string(), 0.2), ("b".to_string(), 0.002)]),
+            loss_held_out: 1.0,
+        };
+        let a = additivity(&refit("a", Some(0.25)), &first, 0.8).unwrap();
+        assert!((a - 1.0).abs() < 1e-12, "{a}");
+        let b = additivity(&refit("b", Some(0.25)), &first, 0.8).unwrap();
+        assert!((b - 0.01).abs() < 1e-12, "{b}");
+        // Absent for a candidate the first round did not have, or one that gains nothing.
+        assert!(additivity(&refit("c", Some(0.25)), &first, 0.8).is_none());
+        assert!(additivity(&refit("a", Some(-0.1)), &first, 0.8).is_none());
+        assert!(additivity(&refit("a", None), &first, 0.8).is_none());
+    }
 }

@@ -267,6 +267,7 @@ pub(crate) fn screen(
             params: BTreeMap::new(),
             params_std: BTreeMap::new(),
             detection_limit: None,
+            additivity: None,
             failed,
         });
     }

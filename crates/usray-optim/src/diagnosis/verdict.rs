@@ -38,16 +38,29 @@ pub struct VerdictRule {
     /// the image's blocks do not all share says a structure is there that no
     /// candidate holds.
     pub large_excess: f64,
+    /// In a later round of a compound diagnosis, the smallest
+    /// [`EffectResult::additivity`] a named effect may have (default 0.1): an
+    /// effect that adds to the first round's must already have scored there
+    /// about what its gain in this round predicts. One whose gain appears only
+    /// beside the first round's refit is undoing what that refit did to the
+    /// base parameters (on the k-Wave rings, a depth gain of 9.4 dB/cm lit the
+    /// far wall that a refitted wall's raised impedance had shadowed), not a
+    /// second effect. Same-round scores fall to 0.19 of their excess for a
+    /// sound speed (a one-step screen of a rugged loss); 0.1 keeps a factor of
+    /// two below that.
+    pub min_additivity: f64,
 }
 
 impl Default for VerdictRule {
     /// Excess ≥ 3 standard errors over the seeds and ≥ 3 over the image's
-    /// blocks; a large excess is 0.2.
+    /// blocks; a large excess is 0.2; a later round's effect has additivity
+    /// ≥ 0.1.
     fn default() -> Self {
         Self {
             min_excess_z: 3.0,
             min_spatial_z: 3.0,
             large_excess: 0.2,
+            min_additivity: 0.1,
         }
     }
 }
@@ -102,7 +115,7 @@ pub struct Verdict {
 ///     shrink: Some(shrink), shrink_std: Some(0.01), excess: Some(excess),
 ///     excess_std: Some(0.01), excess_spatial_std: Some(spatial), gap_explained: Some(0.5),
 ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
-///     detection_limit: None, failed: None,
+///     detection_limit: None, additivity: None, failed: None,
 /// };
 /// let rule = VerdictRule::default();
 /// // Shrinks 0.80 and 0.78 tie; the first has the higher score.
@@ -120,6 +133,10 @@ pub struct Verdict {
 /// let mut at_bound = refit(0.3, 0.8, 0.7, 0.1);
 /// at_bound.params.insert("p".into(), 1.0);
 /// assert!(name_effect(&[at_bound], true, &rule).is_none());
+/// // In a later round, a gain the first round did not foreshadow is no second effect.
+/// let mut jointly_only = refit(0.3, 0.3, 0.28, 0.05);
+/// jointly_only.additivity = Some(0.01);
+/// assert!(name_effect(&[jointly_only], true, &rule).is_none());
 /// ```
 pub fn name_effect(
     refits: &[EffectResult],
@@ -137,7 +154,8 @@ pub fn name_effect(
             .excess_spatial_std
             .is_some_and(|se| excess >= rule.min_spatial_z * se);
         let large_enough = noise_passed || excess >= rule.large_excess;
-        excess > 0.0 && over_seeds && over_image && large_enough && !e.at_range_bound()
+        let additive = e.additivity.is_none_or(|a| a >= rule.min_additivity);
+        excess > 0.0 && over_seeds && over_image && large_enough && additive && !e.at_range_bound()
     };
     let shrink = |i: usize| refits[i].shrink.unwrap_or(f64::NEG_INFINITY);
     let qualified: Vec<usize> = (0..refits.len())
@@ -163,7 +181,8 @@ pub fn name_effect(
 /// A refit that still beats the null refit by a large margin (excess at least
 /// [`VerdictRule::large_excess`] and [`VerdictRule::min_excess_z`] seed
 /// standard errors) without qualifying — its gain not shared across the
-/// image, or its parameter pressed against the bound of its range — says
+/// image, its parameter pressed against the bound of its range, or in a later
+/// round a gain the first round did not foreshadow — says
 /// something structured is there that no candidate accounts for:
 /// `"unexplained"`. Otherwise, where the
 /// simulation's noise is a small enough share of the gap (`noise_passed`,
