@@ -225,7 +225,9 @@ fn additivity(e: &EffectResult, first: &FirstRound, loss_held_out: f64) -> Optio
 /// Compound gaps: diagnoses `scene`; while the verdict names an effect and
 /// fewer than `rounds` rounds have run, switches the named effect on at its
 /// refitted value, adds its parameter to the calibrated ones (within its
-/// candidate range) and diagnoses again. Returns every round's diagnosis, in
+/// candidate range) and diagnoses again; a later round names an effect only if
+/// it adds to the first round's ([`EffectResult::additivity`],
+/// [`super::VerdictRule::min_additivity`]). Returns every round's diagnosis, in
 /// order: the ranked list of effects, each with its shrink. With
 /// [`DiagnoseOptions::budget_s`], a further round runs only within what is left
 /// of the budget, and receives that remainder as its own.
