@@ -2,8 +2,8 @@
 unlike the model the diagnosis uses.
 
 Each case is a base scene (a1_tube.toml, a2_sphere.toml, a3_layered.toml) with at most one
-effect switched on (two in the compound cases). Its "measured" data are rendered with 10x the model's rays (200 against
-20), the independent sampler (the model: stratified), 8 bounces (the model: 4, or 6 where
+effect switched on (two in the compound cases). Its "measured" data are rendered with 10x
+the model's rays (200 against 20), the independent sampler (the model: stratified), 8 bounces (the model: 4, or 6 where
 a solid cylinder is a wall candidate: usray_optim::diagnosis_bounces), seeds from
 another family (90001 + case index; the model's fits use 1 and its held-out seeds 2 + k 2^33),
 and white measurement noise at -50 dB of the largest channel sample (seeded, numpy).

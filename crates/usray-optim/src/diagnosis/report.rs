@@ -387,12 +387,11 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 let Some(a) = e.additivity.filter(|a| *a < round.rule.min_additivity) else {
                     continue;
                 };
-                let score_1 = d
-                    .effects
-                    .iter()
-                    .find(|x| x.path == e.path)
-                    .map_or(0.0, |x| x.score);
-                writeln!(r, "\nRound {}: `{}` gains {:+.3} over the null refit here but scored {:.4} in the first round, {:.2} of what an effect adding to the first round's would have scored (at least {:.2} to be named): its gain appears only beside the earlier effect's refit, undoing what that refit did to the base parameters, so it is not named as a second effect.", i + 1, e.effect, e.excess.unwrap_or(0.0), score_1, a, round.rule.min_additivity)?;
+                // An additivity exists only for a candidate the first round scored.
+                let Some(first) = d.effects.iter().find(|x| x.path == e.path) else {
+                    continue;
+                };
+                writeln!(r, "\nRound {}: `{}` gains {:+.3} over the null refit here but scored {:.4} in the first round, {:.2} of what an effect adding to the first round's would have scored (at least {:.2} to be named): its gain appears only beside the earlier effect's refit, undoing what that refit did to the base parameters, so it is not named as a second effect.", i + 1, e.effect, e.excess.unwrap_or(0.0), first.score, a, round.rule.min_additivity)?;
             }
         }
     }

@@ -128,7 +128,7 @@ pub fn diagnose(
     if let Some(first) = &opts.first_round {
         for r in &refits {
             let e = &mut effects[r.candidate];
-            e.additivity = additivity(e, first, stage.held_loss);
+            e.additivity = additivity(&e.path, e.excess, first, stage.held_loss);
         }
     }
 
@@ -214,11 +214,17 @@ pub fn diagnose(
     })
 }
 
-/// [`EffectResult::additivity`] of a refitted effect `e` in a round whose
-/// calibrated held-out loss is `loss_held_out`.
-fn additivity(e: &EffectResult, first: &FirstRound, loss_held_out: f64) -> Option<f64> {
-    let score_1 = *first.scores.get(&e.path)?;
-    let removed = e.excess.filter(|x| *x > 0.0)? * loss_held_out / first.loss_held_out;
+/// [`EffectResult::additivity`] of the refitted effect on `path` with
+/// [`EffectResult::excess`] `excess`, in a round whose calibrated held-out loss
+/// is `loss_held_out`.
+fn additivity(
+    path: &str,
+    excess: Option<f64>,
+    first: &FirstRound,
+    loss_held_out: f64,
+) -> Option<f64> {
+    let score_1 = *first.scores.get(path)?;
+    let removed = excess.filter(|x| *x > 0.0)? * loss_held_out / first.loss_held_out;
     Some(score_1 / removed)
 }
 
@@ -321,32 +327,6 @@ mod tests {
     use super::*;
     use std::collections::BTreeMap;
 
-    fn refit(path: &str, excess: Option<f64>) -> EffectResult {
-        EffectResult {
-            effect: "e".into(),
-            path: path.into(),
-            score: 0.0,
-            onset: 0.0,
-            range: [0.0, 1.0],
-            null: Some(0.0),
-            gradient: 0.0,
-            loss_onset: 1.0,
-            loss_after: None,
-            shrink: None,
-            shrink_std: None,
-            excess,
-            excess_std: None,
-            excess_spatial_std: None,
-            gap_explained: None,
-            held_out_losses: vec![],
-            params: BTreeMap::new(),
-            params_std: BTreeMap::new(),
-            detection_limit: None,
-            additivity: None,
-            failed: None,
-        }
-    }
-
     /// An effect that removes the same loss in both rounds has additivity 1:
     /// excess 0.25 of a second-round loss 0.8 is 0.2 of the first round's 1.0,
     /// which is what it scored there.
@@ -356,13 +336,13 @@ mod tests {
             scores: BTreeMap::from([("a".to_string(), 0.2), ("b".to_string(), 0.002)]),
             loss_held_out: 1.0,
         };
-        let a = additivity(&refit("a", Some(0.25)), &first, 0.8).unwrap();
+        let a = additivity("a", Some(0.25), &first, 0.8).unwrap();
         assert!((a - 1.0).abs() < 1e-12, "{a}");
-        let b = additivity(&refit("b", Some(0.25)), &first, 0.8).unwrap();
+        let b = additivity("b", Some(0.25), &first, 0.8).unwrap();
         assert!((b - 0.01).abs() < 1e-12, "{b}");
         // Absent for a candidate the first round did not have, or one that gains nothing.
-        assert!(additivity(&refit("c", Some(0.25)), &first, 0.8).is_none());
-        assert!(additivity(&refit("a", Some(-0.1)), &first, 0.8).is_none());
-        assert!(additivity(&refit("a", None), &first, 0.8).is_none());
+        assert!(additivity("c", Some(0.25), &first, 0.8).is_none());
+        assert!(additivity("a", Some(-0.1), &first, 0.8).is_none());
+        assert!(additivity("a", None, &first, 0.8).is_none());
     }
 }
