@@ -102,6 +102,14 @@ pub fn depth_gain<T: Real>(g_db_cm: T, c: T, t: T) -> T {
 /// that is not differentiated (like a visibility change). The grid holds 1–2× the
 /// scatterers `ρ` asks for, which leaves speckle statistics (fully developed
 /// above ~10 scatterers per resolution cell) much as they are.
+///
+/// **In 2-D** ([`ScattererField::planar`]) the field is its cut at `y = 0`:
+/// square cells of the same side `h` in the `xz` plane (so `ρ_g^{2/3}`
+/// scatterers per mm², a cubic grid's density in a slab one cell thick), each
+/// scatterer a line along `y` that re-radiates isotropically in the plane
+/// (`1/(2π)` per radian). A path's weight then carries the width per ray, the
+/// events estimate `μ ∫ F dA`, and `F = A/(μ h²) = A/h`: the event factor is
+/// `√(ρ/ρ_g)·(1 mm/h)`, with `A` in mm per radian.
 #[derive(Clone, Copy, Debug)]
 pub struct ScattererField {
     /// Cell side `h`, metres.
@@ -110,6 +118,8 @@ pub struct ScattererField {
     pub grid_per_mm3: f64,
     /// Key of the owning object.
     pub key: u64,
+    /// The 2-D field of a planar scene (`acquisition.dimensions = 2`).
+    pub planar: bool,
 }
 
 impl ScattererField {
@@ -136,7 +146,34 @@ impl ScattererField {
             cell_m: 1e-3 * grid.powf(-1.0 / 3.0),
             grid_per_mm3: grid,
             key,
+            planar: false,
         })
+    }
+
+    /// The same field cut at `y = 0` for a 2-D scene (see the type's docs).
+    ///
+    /// ```
+    /// use usray_transport::effects::ScattererField;
+    /// let f = ScattererField::new(0, 8.0).unwrap().planar(); // h = 0.5 mm
+    /// assert!((f.event_weight(8.0f64) - 2.0).abs() < 1e-12); // 1 mm / h
+    /// let (q, _) = f.scatterer_near::<f64>([1e-3, 0.2e-3, 2e-3]);
+    /// assert_eq!(q.y, 0.0);
+    /// ```
+    pub fn planar(self) -> Self {
+        Self {
+            planar: true,
+            ..self
+        }
+    }
+
+    /// The angle of all directions a scatterer re-radiates into, isotropically:
+    /// `4π` sr, in 2-D `2π` rad.
+    pub fn full_angle(&self) -> f64 {
+        if self.planar {
+            2.0 * core::f64::consts::PI
+        } else {
+            4.0 * core::f64::consts::PI
+        }
     }
 
     /// Key of the field filling object `object`'s material.
@@ -174,7 +211,8 @@ impl ScattererField {
 
     /// The factor `√(ρ/ρ_g)·(1 mm/h)² = √(ρ/ρ_g)·ρ_g^{2/3}` (ρ in per mm³) of
     /// every scattering event for the material's density `ρ`, in `T`: its
-    /// derivative carries the density's gradient, `∂/∂ρ = weight/(2ρ)`.
+    /// derivative carries the density's gradient, `∂/∂ρ = weight/(2ρ)`. In 2-D
+    /// `√(ρ/ρ_g)·(1 mm/h) = √(ρ/ρ_g)·ρ_g^{1/3}`.
     ///
     /// ```
     /// use usray_transport::effects::ScattererField;
@@ -183,19 +221,25 @@ impl ScattererField {
     /// ```
     #[inline]
     pub fn event_weight<T: Real>(&self, per_mm3: T) -> T {
+        let cells_per_mm = if self.planar { 1.0 } else { 2.0 };
         per_mm3
             .scale(1.0 / self.grid_per_mm3)
             .sqrt()
-            .scale(self.grid_per_mm3.powf(2.0 / 3.0))
+            .scale(self.grid_per_mm3.powf(cells_per_mm / 3.0))
     }
 
     /// The scatterer of the cell containing point `p` (metres): its position
-    /// (constants) and its amplitude `g`.
+    /// (constants) and its amplitude `g`. In 2-D the cell of `p`'s projection
+    /// on `y = 0`, and a position there.
     pub fn scatterer_near<T: Real>(&self, p: [f64; 3]) -> (Vec3<T>, f64) {
         let h = self.cell_m;
         let c = [
             (p[0] / h).floor() as i64,
-            (p[1] / h).floor() as i64,
+            if self.planar {
+                0
+            } else {
+                (p[1] / h).floor() as i64
+            },
             (p[2] / h).floor() as i64,
         ];
         let mut k = self.key;
@@ -203,11 +247,12 @@ impl ScattererField {
             k = mix64(k ^ (ci as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         }
         let u = |j: u64| (mix64(k ^ j) >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
-        let pos = Vec3::from_f64s([
-            (c[0] as f64 + u(1)) * h,
-            (c[1] as f64 + u(2)) * h,
-            (c[2] as f64 + u(3)) * h,
-        ]);
+        let y = if self.planar {
+            0.0
+        } else {
+            (c[1] as f64 + u(2)) * h
+        };
+        let pos = Vec3::from_f64s([(c[0] as f64 + u(1)) * h, y, (c[2] as f64 + u(3)) * h]);
         let g = (2.0 * u(4) - 1.0) * 3f64.sqrt();
         (pos, g)
     }

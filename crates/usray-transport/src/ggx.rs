@@ -31,6 +31,7 @@
 //! interface.
 
 use crate::fresnel::{fresnel, fresnel_ratio, reflect, refract};
+use crate::ggx_planar as planar;
 use usray_ad::Real;
 use usray_geometry::Vec3;
 
@@ -50,6 +51,9 @@ pub struct Interface<T> {
     pub z2: T,
     /// GGX roughness `α` (dimensionless).
     pub alpha: T,
+    /// The 2-D (flatland) model of [`crate::ggx_planar`]: normals, directions
+    /// and densities in the `xz` plane (`acquisition.dimensions = 2`).
+    pub planar: bool,
 }
 
 /// An orthonormal frame around a unit normal `n` (Duff et al. 2017,
@@ -198,6 +202,43 @@ impl<T: Real> Interface<T> {
         self.alpha.value() < SMOOTH_ALPHA
     }
 
+    /// `|i·h|·D(h)·|dωh/dωo|/|i·n|` of a reflection (`i·h = o·h = ih`, `inv_cos_i
+    /// = 1/|i·n|`), shared by the BSDF and its density: `D/(4|i·n|)` in 3-D
+    /// (Walter 2007 eq. 14), `(i·h)·D₂/(2|i·n|)` in 2-D.
+    fn reflection_common(&self, cos_h: T, ih: T, inv_cos_i: T) -> T {
+        if self.planar {
+            ih * planar::ndf(cos_h, self.alpha) * planar::reflection_jacobian::<T>() * inv_cos_i
+        } else {
+            ndf(cos_h, self.alpha) * inv_cos_i.scale(0.25)
+        }
+    }
+
+    /// `|i·h|·D(h)·|dωh/dωo|/|i·n|` of a refraction (`den = η_i(i·h) +
+    /// η_o(o·h)`): `|i·h||o·h|·η_o² D/(|i·n| den²)` in 3-D (Walter 2007 eq. 17),
+    /// `|i·h|·D₂·η_o|o·h|/(|i·n||den|)` in 2-D.
+    #[allow(clippy::too_many_arguments)]
+    fn refraction_common(&self, cos_h: T, ih: T, oh: T, ei: T, eo: T, inv_cos_i: T) -> T {
+        if self.planar {
+            ih * inv_cos_i
+                * (planar::ndf(cos_h, self.alpha) * planar::refraction_jacobian(ih, oh, ei, eo))
+        } else {
+            let den = ei * ih + eo * oh;
+            ih * oh.abs() * inv_cos_i * eo * eo * ndf(cos_h, self.alpha) / (den * den)
+        }
+    }
+
+    /// The visible-normal sample of `wi` about `n`: [`sample_vndf`] in 3-D,
+    /// [`planar::sample_vndf`] in 2-D (from `u1` alone).
+    fn sample_normal(&self, wi: Vec3<T>, n: Vec3<T>, u1: f64, u2: f64) -> Vec3<T> {
+        if self.planar {
+            let frame = planar::PlanarFrame::new(n);
+            frame.to_world(planar::sample_vndf(frame.to_local(wi), self.alpha, u1))
+        } else {
+            let frame = Frame::new(n);
+            frame.to_world(sample_vndf(frame.to_local(wi), self.alpha, u1, u2))
+        }
+    }
+
     /// Scatter incident `wi` (away from the surface) at a surface with
     /// incident-side unit normal `n`: one microfacet normal from uniforms
     /// `u1, u2`, and **both** its reflection and its transmission, each with its
@@ -225,8 +266,7 @@ impl<T: Real> Interface<T> {
         let h = if smooth {
             n
         } else {
-            let frame = Frame::new(n);
-            frame.to_world(sample_vndf(frame.to_local(wi), self.alpha, u1, u2))
+            self.sample_normal(wi, n, u1, u2)
         };
         let cos_ih = wi.dot(h);
         if cos_ih.value() <= 0.0 {
@@ -289,8 +329,8 @@ impl<T: Real> Interface<T> {
                 return T::zero();
             }
             let f = fresnel(cos_ih, self.c1, self.c2, self.z1, self.z2);
-            f.r * ndf(h.dot(n), self.alpha) * g2(cos_i, cos_o, self.alpha)
-                / (cos_i * T::from_f64(4.0))
+            f.r * self.reflection_common(h.dot(n), cos_ih, cos_i.recip())
+                * g2(cos_i, cos_o, self.alpha)
         } else {
             let (ei, eo) = (self.c1.recip(), self.c2.recip());
             let Some((h, ih, oh)) = refraction_half_vector(wi, wo, n, ei, eo) else {
@@ -300,14 +340,9 @@ impl<T: Real> Interface<T> {
             if f.tir {
                 return T::zero();
             }
-            let den = ei * ih + eo * oh;
             let co = cos_o.abs();
-            f.t * ih * oh.abs() / cos_i
-                * eo
-                * eo
-                * ndf(h.dot(n), self.alpha)
+            f.t * self.refraction_common(h.dot(n), ih, oh, ei, eo, cos_i.recip())
                 * g2(cos_i, co, self.alpha)
-                / (den * den)
         }
     }
 
@@ -352,19 +387,32 @@ impl<T: Real> Interface<T> {
     /// tracer's MIS weights use the equal, cheaper [`Incident::eval_pdf`]
     /// (checked against this to 1e-12 in `tests/ggx.rs`).
     pub fn pdf(&self, wi: Vec3<T>, wo: Vec3<T>, n: Vec3<T>) -> T {
-        let frame = Frame::new(n);
-        let wil = frame.to_local(wi);
         let cos_o = wo.dot(n).value();
-        if self.smooth() || wil.z.value() <= 0.0 || cos_o == 0.0 {
+        if self.smooth() || wi.dot(n).value() <= 0.0 || cos_o == 0.0 {
             return T::zero();
         }
+        // The visible-normal density of `h` in the local frame.
+        let vndf = |h: Vec3<T>| {
+            if self.planar {
+                let frame = planar::PlanarFrame::new(n);
+                planar::vndf_pdf(frame.to_local(wi), frame.to_local(h), self.alpha)
+            } else {
+                let frame = Frame::new(n);
+                vndf_pdf(frame.to_local(wi), frame.to_local(h), self.alpha)
+            }
+        };
         if cos_o > 0.0 {
             let h = (wi + wo).normalize();
             let ih = wi.dot(h);
             if ih.value() <= 0.0 {
                 return T::zero();
             }
-            vndf_pdf(wil, frame.to_local(h), self.alpha) / ih.scale(4.0)
+            let jacobian = if self.planar {
+                planar::reflection_jacobian()
+            } else {
+                ih.scale(4.0).recip()
+            };
+            vndf(h) * jacobian
         } else {
             let (ei, eo) = (self.c1.recip(), self.c2.recip());
             let Some((h, ih, oh)) = refraction_half_vector(wi, wo, n, ei, eo) else {
@@ -373,8 +421,13 @@ impl<T: Real> Interface<T> {
             if fresnel(ih, self.c1, self.c2, self.z1, self.z2).tir {
                 return T::zero();
             }
-            let den = ei * ih + eo * oh;
-            vndf_pdf(wil, frame.to_local(h), self.alpha) * eo * eo * oh.abs() / (den * den)
+            let jacobian = if self.planar {
+                planar::refraction_jacobian(ih, oh, ei, eo)
+            } else {
+                let den = ei * ih + eo * oh;
+                eo * eo * oh.abs() / (den * den)
+            };
+            vndf(h) * jacobian
         }
     }
 }
@@ -426,10 +479,10 @@ impl<T: Real> Incident<T> {
                 return zero;
             }
             let fr = fresnel_ratio(cos_ih, self.ratio, f.z1, f.z2);
-            let d = ndf(h.dot(n), f.alpha);
-            let d_4ci = d * self.inv_cos_i.scale(0.25);
-            // pdf = D_i(h)/(4 i·h) = G1(i)·D(h)/(4 i·n).
-            (fr.r * d_4ci * g2(cos_o), self.g1_i * d_4ci)
+            // |i·h|·D·|dωh/dωo|/|i·n|, shared by value and density (3-D: the
+            // pdf is D_i(h)/(4 i·h) = G1(i)·D(h)/(4 i·n)).
+            let common = f.reflection_common(h.dot(n), cos_ih, self.inv_cos_i);
+            (fr.r * common * g2(cos_o), self.g1_i * common)
         } else {
             let (ei, eo) = self.eta;
             let Some((h, ih, oh)) = refraction_half_vector(wi, wo, n, ei, eo) else {
@@ -439,10 +492,8 @@ impl<T: Real> Incident<T> {
             if fr.tir {
                 return zero;
             }
-            let den = ei * ih + eo * oh;
-            let d = ndf(h.dot(n), f.alpha);
-            // |i·h||o·h|/|i·n| · η_o² D / den², shared by value and density.
-            let common = ih * oh.abs() * self.inv_cos_i * eo * eo * d / (den * den);
+            // |i·h|·D·|dωh/dωo|/|i·n| (3-D: |i·h||o·h|/|i·n| · η_o² D / den²).
+            let common = f.refraction_common(h.dot(n), ih, oh, ei, eo, self.inv_cos_i);
             (fr.t * common * g2(cos_o.abs()), self.g1_i * common)
         }
     }

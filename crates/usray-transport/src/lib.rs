@@ -115,6 +115,7 @@ pub mod downshift;
 pub mod effects;
 pub mod fresnel;
 pub mod ggx;
+pub mod ggx_planar;
 pub mod gradient;
 pub mod integrator;
 pub mod plan;

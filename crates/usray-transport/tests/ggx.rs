@@ -129,6 +129,7 @@ fn sampled_weight_matches_integrated_bsdf() {
             z1: 1.54,
             z2,
             alpha,
+            planar: false,
         };
         let wi = Vec3::new(theta_i.sin(), 0.0, theta_i.cos());
         // Monte Carlo: mean weight and its standard error.
@@ -198,6 +199,7 @@ fn eval_pdf_agrees_with_eval_and_pdf() {
             z1: 1.54,
             z2,
             alpha,
+            planar: false,
         };
         for k in 0..4000u32 {
             let s = PathSampler::new(3, 0, 0, k);
@@ -232,6 +234,7 @@ fn eval_pdf_derivatives_agree_with_eval_and_pdf() {
             z1: D::constant(1.54),
             z2: D::constant(z2),
             alpha: D::variable(alpha, 0),
+            planar: false,
         };
         for k in 0..2000u32 {
             let s = PathSampler::new(4, 0, 0, k);

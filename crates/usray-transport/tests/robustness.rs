@@ -69,6 +69,7 @@ fn grazing_incidence_samples_and_evaluations_are_finite() {
             z1: 1.5,
             z2: 4.0,
             alpha,
+            planar: false,
         };
         for &c in &[0.0, 1e-300, 1e-12, 1e-6, 0.5, 1.0] {
             let s = (1.0f64 - c * c).sqrt();

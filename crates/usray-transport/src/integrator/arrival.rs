@@ -41,13 +41,13 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             if let Some(e) = element_at(&st.array, st.elevation, pv) {
                 let element = &st.elements[e];
                 // After a rough vertex: MIS against its receiver connection
-                // (density 1/(sel_w·Ω_e) of the element's solid angle).
+                // (density 1/(sel_w·Ω_e) of the element's solid angle, or angle in 2-D).
                 let mis = match last_rough {
                     Some(p_b) if !specular_chain => {
                         let v = centre3(element) - origin;
                         let r2 = v.length_squared();
                         let cos_e = -cos_to_normal(st.array.kind, &element.normal, v) / r2.sqrt();
-                        let solid = st.array.element_width_m * st.elevation * cos_e / r2;
+                        let solid = st.element_measure(cos_e, r2);
                         let sel_w = settings.receiver_weight(n_el, e);
                         power_heuristic(p_b, solid.scale(sel_w).recip())
                     }

@@ -85,6 +85,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     ScattererField::material_key(obj),
                     medium.scatterer_density_per_mm3,
                     medium.scatterer_strength,
+                    st.planar,
                 );
                 if let Some(src) = src {
                     self.volume(&src, &span((0.0, seg_len)), w, beta, time, &sampler, bounce);
@@ -98,6 +99,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     ScattererField::lumen_key(lumen.object),
                     lumen.scatterer_density_per_mm3,
                     lumen.scatterer_strength,
+                    st.planar,
                 );
                 if let Some(src) = src {
                     self.volume(&src, &span(s), w, beta, time, &sampler, bounce);

@@ -138,7 +138,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 );
                 amp *= k;
                 beta += b;
-                let solid = st.array.element_width_m * st.elevation * cos_e / (r * r);
+                let solid = st.element_measure(cos_e, r * r);
                 // Unobstructed: the continuation could have hit the element too.
                 let mis = if crossing == 0 && p_bsdf.value() > 0.0 {
                     power_heuristic((solid.scale(sel_w)).recip(), p_bsdf)

@@ -34,7 +34,12 @@ pub(super) fn emit<T: Real>(
     let kind = st.array.kind;
     let element = st.elements[el];
     let ux = sampler.uniform(0, dim::EMIT_X) - 0.5;
-    let uy = sampler.uniform(0, dim::EMIT_Y) - 0.5;
+    // In 2-D every ray leaves the element's centre line (`y = 0`).
+    let uy = if st.planar {
+        0.0
+    } else {
+        sampler.uniform(0, dim::EMIT_Y) - 0.5
+    };
     let origin = face_point(
         kind,
         &element,
@@ -48,19 +53,26 @@ pub(super) fn emit<T: Real>(
     let firing_time = wave.element_delay_s(element.centre_m, c_img);
     let (dir, w, time) = match st.emission {
         Emission::Cosine => {
-            let dl = cosine_hemisphere(
+            let (u1, u2) = (
                 sampler.uniform(0, dim::EMIT_U1),
                 sampler.uniform(0, dim::EMIT_U2),
             );
+            // f_d(ω)/p(ω) with p = cos θ/π about the normal (1/sr), normalised
+            // by π: value 1. In 2-D, p = cos θ/2 (1/rad: `sin θ` uniform),
+            // normalised by 2.
+            let (dl, pdf, norm) = if st.planar {
+                let s = 2.0 * u1 - 1.0;
+                let c = (1.0 - s * s).max(0.0).sqrt();
+                ([s, 0.0, c], c / 2.0, 2.0)
+            } else {
+                let dl = cosine_hemisphere(u1, u2);
+                (dl, dl[2] / core::f64::consts::PI, core::f64::consts::PI)
+            };
             let dir = from_element_frame(kind, &element, dl);
-            // f_d(ω)/p(ω) with p = cos θ/π about the normal (constant in the
-            // element's frame), normalised by π: value 1.
-            let pdf = dl[2] / core::f64::consts::PI;
             if pdf <= 0.0 {
                 return None;
             }
-            let w = transmit_directivity(kind, &element, dir)
-                / T::from_f64(pdf * core::f64::consts::PI);
+            let w = transmit_directivity(kind, &element, dir) / T::from_f64(pdf * norm);
             // The element radiates as a whole at its firing time.
             (dir, w, firing_time)
         }

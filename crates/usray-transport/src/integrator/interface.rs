@@ -9,7 +9,7 @@ use crate::ggx::{Interface, SMOOTH_ALPHA};
 use crate::rng::dim;
 use crate::scene::MaterialT;
 use usray_ad::Real;
-use usray_geometry::{Hit, Ray};
+use usray_geometry::{Hit, Ray, Vec3};
 
 impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
     /// Step 5: branch `b`, arrived at `hit` through `medium` (its amplitude,
@@ -51,8 +51,15 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             z1: medium.impedance,
             z2: other.impedance,
             alpha: st.objects[hit.object].material.roughness,
+            planar: st.planar,
         };
         let n_inc = if entering { hit.normal } else { -hit.normal };
+        // In 2-D the surface is its cut at y = 0: its normal in the plane.
+        let n_inc = if st.planar {
+            Vec3::new(n_inc.x, T::zero(), n_inc.z).normalize()
+        } else {
+            n_inc
+        };
         let wi = -dir;
 
         // The rough interface as seen from `wi`: BSDF and density terms shared by

@@ -11,7 +11,11 @@
 //! `pressure_equation`): spreading is carried by the ray density, never by an
 //! explicit `1/r` on the path. Receiver connections evaluate the element's solid
 //! angle `A_e cos θ_e / r²` (the same ray density, written for a chosen
-//! direction), so a point scatterer's echo falls as `1/r²` in this model.
+//! direction), so a point scatterer's echo falls as `1/r²` in this model. In
+//! 2-D (`acquisition.dimensions = 2`) everything stays in the `xz` plane, the
+//! densities are per radian and a connection carries the element's angle
+//! `w cos θ_e / r` ([`crate::scene::SceneT::element_measure`]): a line
+//! scatterer's echo falls as `1/r`.
 //!
 //! # Path loop (pbrt-style)
 //! 1. Emit: point on the element face, a direction (`acquisition.emission`:

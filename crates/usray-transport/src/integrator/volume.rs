@@ -26,12 +26,13 @@ pub(super) struct Scatterers<T> {
 
 impl<T: Real> Scatterers<T> {
     /// The field of `key` with `density_per_mm3` and `strength`, or `None` when
-    /// either is zero (no events).
-    pub fn new(key: u64, density_per_mm3: T, strength: T) -> Option<Self> {
+    /// either is zero (no events); cut at `y = 0` when `planar`.
+    pub fn new(key: u64, density_per_mm3: T, strength: T, planar: bool) -> Option<Self> {
         if strength.value() == 0.0 {
             return None;
         }
         let field = ScattererField::keyed(key, density_per_mm3.value())?;
+        let field = if planar { field.planar() } else { field };
         Some(Self {
             field,
             density_per_mm3,
@@ -95,7 +96,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 along,
             );
             let (a_q, beta_q) = (w * k_q, beta + b_q);
-            let f = (src.strength * density_weight).scale(g / (4.0 * core::f64::consts::PI));
+            let f = (src.strength * density_weight).scale(g / field.full_angle());
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
             for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {

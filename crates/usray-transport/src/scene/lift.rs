@@ -146,9 +146,26 @@ pub struct SceneT<T> {
     pub imaging_sound_speed: T,
     /// Emission model of the primary rays.
     pub emission: Emission,
+    /// 2-D transport (`acquisition.dimensions = 2`): rays, normals and lobes in
+    /// the `xz` plane, densities per radian.
+    pub planar: bool,
 }
 
 impl<T: Real> SceneT<T> {
+    /// What an element receives of a direction's neighbourhood, seen from
+    /// squared distance `r2` (m²) at cosine `cos_e` to its normal: its solid
+    /// angle `w h cos θ_e / r²` (sr) in 3-D, its angle `w cos θ_e / r` (rad) in
+    /// 2-D (`w` its width, `h` its elevation). Receiver connections multiply
+    /// by it; its inverse is their density in the MIS weights.
+    #[inline]
+    pub fn element_measure(&self, cos_e: T, r2: T) -> T {
+        if self.planar {
+            self.array.element_width_m * cos_e / r2.sqrt()
+        } else {
+            self.array.element_width_m * self.elevation * cos_e / r2
+        }
+    }
+
     /// The medium of object `k`, or the background for `None`.
     pub fn medium_of(&self, k: Option<usize>) -> &MaterialT<T> {
         match k {
@@ -336,6 +353,7 @@ impl Scene {
                 None => get(ParamKey::medium(Field::SoundSpeed)),
             },
             emission: self.acquisition.emission,
+            planar: self.acquisition.dimensions.is_planar(),
         })
     }
 

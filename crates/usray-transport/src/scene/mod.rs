@@ -18,8 +18,8 @@ mod slots;
 pub use key::{Field, ImagingRole, Owner, ParamGroup, ParamKey};
 pub use lift::{LumenT, MaterialT, ObjectT, SceneT};
 pub use schema::{
-    limits, Acquisition, Emission, Imaging, Material, Medium, Object, Probe, Sampler, ShapeKind,
-    TransmitSpec,
+    limits, Acquisition, Dimensions, Emission, Imaging, Material, Medium, Object, Probe, Sampler,
+    ShapeKind, TransmitSpec,
 };
 
 use std::collections::BTreeMap;

@@ -101,6 +101,10 @@ pub struct Acquisition {
     /// single uniformly chosen element (weight `n_elements`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub receivers_per_event: Option<usize>,
+    /// Spatial dimensions of the transport: 3 (the default) or 2, for data
+    /// simulated in 2-D (`dimensions = 2`; [`Dimensions`]).
+    #[serde(default, skip_serializing_if = "Dimensions::is_default")]
+    pub dimensions: Dimensions,
 }
 
 /// One `[[acquisition.transmits]]` entry (CONTRACT §3): `kind = "plane_wave"`
@@ -155,6 +159,68 @@ pub enum Emission {
     /// that direction). No edge waves; far less noise.
     #[default]
     PlaneWave,
+}
+
+/// Spatial dimensions of the transport (`acquisition.dimensions`).
+///
+/// `3` (the default): rays in space, rough surfaces scatter in elevation too,
+/// an element receives over its face (`probe.elevation_m` high). `2`: the scene
+/// is its cross-section at `y = 0`, every ray, normal and scattered direction
+/// stays in the `xz` plane and densities are per radian
+/// ([`crate::ggx_planar`]), as in data simulated in 2-D (k-Wave's 2-D
+/// solver, PyMUST's `simus`), whose sources and scatterers are lines along
+/// `y`. In 2-D, an echo spreads over `1/r` where in 3-D it spreads over `1/r²`
+/// (a receiver connection's measure is the element's angle `w cos θ / r`
+/// instead of its solid angle `w h cos θ / r²`), and a rough wall's echo is not
+/// lost out of the plane. Objects are cut at `y = 0`; a normal there with a `y`
+/// component (a tilted mesh) is projected onto the plane.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "u8", into = "u8")]
+pub enum Dimensions {
+    /// Two: the `xz` plane.
+    Two,
+    /// Three (the default).
+    #[default]
+    Three,
+}
+
+impl Dimensions {
+    /// `true` for the default (3), which a written scene leaves out.
+    pub fn is_default(&self) -> bool {
+        *self == Self::Three
+    }
+    /// `true` in 2-D.
+    pub fn is_planar(&self) -> bool {
+        *self == Self::Two
+    }
+}
+
+impl TryFrom<u8> for Dimensions {
+    type Error = String;
+
+    /// `2` or `3`.
+    ///
+    /// ```
+    /// use usray_transport::scene::Dimensions;
+    /// assert_eq!(Dimensions::try_from(2), Ok(Dimensions::Two));
+    /// assert!(Dimensions::try_from(1).unwrap_err().contains("2 or 3"));
+    /// ```
+    fn try_from(d: u8) -> Result<Self, Self::Error> {
+        match d {
+            2 => Ok(Self::Two),
+            3 => Ok(Self::Three),
+            other => Err(format!("dimensions = {other}: expected 2 or 3")),
+        }
+    }
+}
+
+impl From<Dimensions> for u8 {
+    fn from(d: Dimensions) -> u8 {
+        match d {
+            Dimensions::Two => 2,
+            Dimensions::Three => 3,
+        }
+    }
 }
 
 /// How the rays of one element and transmit draw their random numbers

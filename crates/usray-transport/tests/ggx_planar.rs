@@ -1,0 +1,312 @@
+//! The 2-D (flatland) GGX interface of `usray_transport::ggx_planar`: χ² test
+//! of its visible-normal sampler against its density, its sampled weights
+//! against the numerically integrated BSDF, and the tracer's one-pass
+//! `eval_pdf` against the reference `eval` and `pdf`, in values and in forward
+//! derivatives.
+
+use std::f64::consts::{FRAC_PI_2, PI};
+use usray_ad::{Dual, Real};
+use usray_geometry::Vec3;
+use usray_transport::ggx::Interface;
+use usray_transport::ggx_planar::{sample_vndf, vndf_pdf};
+use usray_transport::rng::PathSampler;
+
+/// Upper-tail probability of χ² with `k` degrees of freedom by the
+/// Wilson–Hilferty normal approximation (accurate to ~1e-3 for k ≥ 30).
+fn chi2_pvalue(x: f64, k: f64) -> f64 {
+    let z = ((x / k).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
+    0.5 * erfc(z / std::f64::consts::SQRT_2)
+}
+
+/// Complementary error function (Numerical Recipes erfcc, |error| < 1.2e-7).
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
+}
+
+/// The in-plane unit vector at angle `a` from `+z` towards `+x`.
+fn at(a: f64) -> Vec3<f64> {
+    Vec3::new(a.sin(), 0.0, a.cos())
+}
+
+fn interface(alpha: f64, c2: f64, z2: f64) -> Interface<f64> {
+    Interface {
+        c1: 1540.0,
+        c2,
+        z1: 1.54,
+        z2,
+        alpha,
+        planar: true,
+    }
+}
+
+#[test]
+fn planar_vndf_samples_follow_their_density_chi2() {
+    // Bins over q = atan(tan θh / α)/(π/2) ∈ (−1, 1), a variable that resolves
+    // the peak for any α; expected counts by a 16-point midpoint rule of the
+    // density in each bin (dθ = (dθ/dq) dq); bins with expected < 5 merged.
+    // Both signs of θi (the sampler's two forms of the visible arc) and
+    // normal incidence, where they meet. Threshold: p-value > 1e-3.
+    let n_bins = 60;
+    let n = 300_000usize;
+    for &(alpha, theta_i) in &[(0.3f64, 0.5f64), (0.6, -1.2), (0.1, 0.0), (0.02, 0.3)] {
+        let wi = [theta_i.sin(), theta_i.cos()];
+        let q_of =
+            |hx: f64, hz: f64| ((hx / hz / alpha).atan() / FRAC_PI_2).clamp(-1.0, 1.0 - 1e-12);
+        let mut counts = vec![0f64; n_bins];
+        for k in 0..n {
+            let s = PathSampler::new(11, 0, 0, k as u32);
+            let h = sample_vndf(wi, alpha, s.uniform(0, 0));
+            assert!((h[0] * h[0] + h[1] * h[1] - 1.0).abs() < 1e-12 && h[1] > 0.0);
+            let i = (((q_of(h[0], h[1]) + 1.0) / 2.0) * n_bins as f64) as usize;
+            counts[i.min(n_bins - 1)] += 1.0;
+        }
+        let sub = 16;
+        let expected: Vec<f64> = (0..n_bins)
+            .map(|i| {
+                let mut acc = 0.0;
+                for a in 0..sub {
+                    let q = -1.0 + 2.0 * (i as f64 + (a as f64 + 0.5) / sub as f64) / n_bins as f64;
+                    let tq = (q * FRAC_PI_2).tan();
+                    let theta = (alpha * tq).atan();
+                    let dtheta_dq =
+                        alpha * FRAC_PI_2 * (1.0 + tq * tq) / (1.0 + alpha * alpha * tq * tq);
+                    acc += vndf_pdf(wi, [theta.sin(), theta.cos()], alpha) * dtheta_dq;
+                }
+                acc / sub as f64 * (2.0 / n_bins as f64) * n as f64
+            })
+            .collect();
+        let (mut chi2, mut dof, mut small_o, mut small_e) = (0.0, 0usize, 0.0, 0.0);
+        for (o, e) in counts.iter().zip(&expected) {
+            if *e < 5.0 {
+                small_o += o;
+                small_e += e;
+            } else {
+                chi2 += (o - e).powi(2) / e;
+                dof += 1;
+            }
+        }
+        if small_e >= 5.0 {
+            chi2 += (small_o - small_e).powi(2) / small_e;
+            dof += 1;
+        }
+        let total_e: f64 = expected.iter().sum();
+        let p = chi2_pvalue(chi2, (dof - 1) as f64);
+        eprintln!(
+            "alpha {alpha}, θi {theta_i}: χ² = {chi2:.1}, dof {}, p = {p:.3}, Σexpected/N = {:.5}",
+            dof - 1,
+            total_e / n as f64
+        );
+        assert!(
+            (total_e / n as f64 - 1.0).abs() < 2e-3,
+            "density does not integrate to 1: {}",
+            total_e / n as f64
+        );
+        assert!(p > 1e-3, "χ² test failed: p = {p}");
+    }
+}
+
+#[test]
+fn planar_sampled_weight_matches_integrated_bsdf() {
+    // E[weight of both continuations] = ∫ f(wi, wo)|wo·n| dθo over the circle.
+    let n_vec = at(0.0);
+    for &(alpha, theta_i, c2, z2) in &[
+        (0.3f64, 0.4f64, 1800.0f64, 2.5f64),
+        (0.5, -1.0, 1300.0, 1.0),
+        (0.2, 0.2, 1300.0, 1.99),
+        (0.05, 0.6, 1600.0, 1.76),
+    ] {
+        let iface = interface(alpha, c2, z2);
+        let wi = at(theta_i);
+        let n = 200_000usize;
+        let (mut s1, mut s2) = (0.0, 0.0);
+        for k in 0..n {
+            let s = PathSampler::new(5, 1, 2, k as u32);
+            let w = iface
+                .scatter(wi, n_vec, s.uniform(1, 0), s.uniform(1, 1))
+                .map(|x| {
+                    for l in [x.reflected, x.transmitted].iter().flatten() {
+                        assert!(l.wo.y == 0.0, "a planar lobe left the plane: {:?}", l.wo);
+                    }
+                    [x.reflected, x.transmitted]
+                        .iter()
+                        .flatten()
+                        .map(|l| l.weight)
+                        .sum::<f64>()
+                })
+                .unwrap_or(0.0);
+            s1 += w;
+            s2 += w * w;
+        }
+        let mean = s1 / n as f64;
+        let se = ((s2 / n as f64 - mean * mean) / n as f64).sqrt();
+        let m = 400_000;
+        let integral: f64 = (0..m)
+            .map(|k| iface.eval(wi, at((k as f64 + 0.5) / m as f64 * 2.0 * PI), n_vec))
+            .sum::<f64>()
+            * (2.0 * PI / m as f64);
+        eprintln!(
+            "alpha {alpha}, θi {theta_i}, c2 {c2}, Z2 {z2}: MC {mean:.5} ± {se:.5}, quadrature {integral:.5}"
+        );
+        assert!(
+            (mean - integral).abs() < 4.0 * se + 1e-3 * integral.abs(),
+            "MC {mean} vs quadrature {integral}"
+        );
+    }
+}
+
+#[test]
+fn planar_pdf_integrates_to_the_share_of_valid_samples() {
+    // ∫ pdf over the reflected directions is the probability that a sampled
+    // normal gives a reflection above the surface; the same for transmission.
+    let n_vec = at(0.0);
+    for &(alpha, theta_i, c2) in &[(0.3f64, 0.4f64, 1800.0f64), (0.6, 1.1, 1300.0)] {
+        let iface = interface(alpha, c2, 1.9);
+        let wi = at(theta_i);
+        let n = 200_000usize;
+        let (mut refl, mut trans) = (0.0, 0.0);
+        for k in 0..n {
+            let s = PathSampler::new(6, 0, 0, k as u32);
+            if let Some(x) = iface.scatter(wi, n_vec, s.uniform(1, 0), s.uniform(1, 1)) {
+                refl += f64::from(u8::from(x.reflected.is_some()));
+                trans += f64::from(u8::from(x.transmitted.is_some()));
+            }
+        }
+        let m = 400_000;
+        let (mut p_r, mut p_t) = (0.0, 0.0);
+        for k in 0..m {
+            let wo = at((k as f64 + 0.5) / m as f64 * 2.0 * PI);
+            let p = iface.pdf(wi, wo, n_vec) * (2.0 * PI / m as f64);
+            if wo.z > 0.0 {
+                p_r += p;
+            } else {
+                p_t += p;
+            }
+        }
+        let (fr, ft) = (refl / n as f64, trans / n as f64);
+        let se = |p: f64| (p * (1.0 - p) / n as f64).sqrt().max(1.0 / n as f64);
+        eprintln!("alpha {alpha}, θi {theta_i}: reflection {fr:.4} vs ∫pdf {p_r:.4}, transmission {ft:.4} vs {p_t:.4}");
+        assert!(
+            (fr - p_r).abs() < 4.0 * se(fr) + 1e-3,
+            "reflection {fr} vs {p_r}"
+        );
+        assert!(
+            (ft - p_t).abs() < 4.0 * se(ft) + 1e-3,
+            "transmission {ft} vs {p_t}"
+        );
+    }
+}
+
+#[test]
+fn planar_eval_pdf_agrees_with_eval_and_pdf() {
+    let mut checked = [0usize; 2];
+    for &(alpha, c2, z2) in &[(0.25f64, 1600.0f64, 1.75f64), (0.6, 1300.0, 1.2)] {
+        let iface = interface(alpha, c2, z2);
+        for k in 0..4000u32 {
+            let s = PathSampler::new(3, 0, 0, k);
+            let angle = |d| 2.0 * PI * s.uniform(0, d);
+            let (mut n, wi, wo) = (at(angle(0)), at(angle(1)), at(angle(2)));
+            if wi.dot(n) < 0.0 {
+                n = -n;
+            }
+            let (v, p) = iface.eval_pdf(wi, wo, n);
+            let (v0, p0) = (iface.eval(wi, wo, n), iface.pdf(wi, wo, n));
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+            assert!(close(v, v0), "eval {v} vs {v0} at {wi:?} {wo:?} {n:?}");
+            assert!(close(p, p0), "pdf {p} vs {p0} at {wi:?} {wo:?} {n:?}");
+            if v0 != 0.0 {
+                checked[usize::from(wo.dot(n) < 0.0)] += 1;
+            }
+        }
+    }
+    assert!(checked.iter().all(|&c| c > 100), "cases: {checked:?}");
+}
+
+#[test]
+fn planar_eval_pdf_derivatives_agree_with_eval_and_pdf() {
+    // Partials with respect to the roughness, the other medium's speed and an
+    // in-plane tilt of the normal (a rotation about y).
+    type D = Dual<3>;
+    let mut checked = [0usize; 2];
+    for &(alpha, c2, z2) in &[(0.25f64, 1600.0f64, 1.75f64), (0.6, 1300.0, 1.2)] {
+        let iface = Interface {
+            c1: D::constant(1540.0),
+            c2: D::variable(c2, 1),
+            z1: D::constant(1.54),
+            z2: D::constant(z2),
+            alpha: D::variable(alpha, 0),
+            planar: true,
+        };
+        for k in 0..2000u32 {
+            let s = PathSampler::new(4, 0, 0, k);
+            let angle = |d| 2.0 * PI * s.uniform(0, d);
+            let lift = |a: D| Vec3::new(a.sin(), D::constant(0.0), a.cos());
+            let (mut an, ai, ao) = (angle(0), angle(1), angle(2));
+            if at(ai).dot(at(an)) < 0.0 {
+                an += PI;
+            }
+            let n = lift(D::variable(0.0, 2) + D::constant(an));
+            let (wi, wo) = (lift(D::constant(ai)), lift(D::constant(ao)));
+            let (v, p) = iface.eval_pdf(wi, wo, n);
+            let (v0, p0) = (iface.eval(wi, wo, n), iface.pdf(wi, wo, n));
+            let close = |a: D, b: D| {
+                let scale = a.re.abs().max(b.re.abs());
+                (a.re - b.re).abs() <= 1e-12 * scale
+                    && a.eps
+                        .iter()
+                        .zip(&b.eps)
+                        .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(scale))
+            };
+            assert!(close(v, v0), "eval {v:?} vs {v0:?}");
+            assert!(close(p, p0), "pdf {p:?} vs {p0:?}");
+            if v0.re != 0.0 && p0.eps[0] != 0.0 && p0.eps[2] != 0.0 {
+                checked[usize::from(wo.dot(n).value() < 0.0)] += 1;
+            }
+        }
+    }
+    assert!(checked.iter().all(|&c| c > 100), "cases: {checked:?}");
+}
+
+#[test]
+fn planar_sample_is_smooth_across_normal_incidence() {
+    // The sampler's two forms of the visible arc meet at θi = 0: for a fixed
+    // uniform the sampled normal and its derivative in θi are continuous there.
+    for &(alpha, u) in &[(0.3f64, 0.2f64), (0.05, 0.7), (1.0, 0.5)] {
+        let h_at = |t: f64| sample_vndf([t.sin(), t.cos()], alpha, u);
+        let eps = 1e-7;
+        let (a, b, c) = (h_at(-eps), h_at(0.0), h_at(eps));
+        for k in 0..2 {
+            assert!((a[k] - b[k]).abs() < 1e-5 && (c[k] - b[k]).abs() < 1e-5);
+            let left = (b[k] - a[k]) / eps;
+            let right = (c[k] - b[k]) / eps;
+            assert!(
+                (left - right).abs() < 1e-4 * left.abs().max(right.abs()).max(1.0),
+                "alpha {alpha}, u {u}, component {k}: slope {left} vs {right}"
+            );
+        }
+        // And in a dual: the derivative exists at 0 and matches the difference.
+        let t = Dual::<1>::variable(0.0, 0);
+        let h = sample_vndf([t.sin(), t.cos()], Dual::constant(alpha), u);
+        let fd = (c[0] - a[0]) / (2.0 * eps);
+        assert!(
+            (h[0].eps[0] - fd).abs() < 1e-5 * fd.abs().max(1.0),
+            "{} vs {fd}",
+            h[0].eps[0]
+        );
+    }
+}
