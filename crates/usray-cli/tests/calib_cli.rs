@@ -861,3 +861,60 @@ fn beamforming_past_the_estimate_needs_yes() {
     );
     assert!(t.elapsed().as_secs() < 30, "refused only after work");
 }
+
+#[test]
+fn data_that_declare_a_2d_simulation_are_compared_with_a_2d_trace() {
+    // Channel data whose provenance names a 2-D simulation (what k-Wave's
+    // generator writes): a scene that leaves `acquisition.dimensions` unset is
+    // traced in 2-D, and the command says so; a scene that sets 3 is not; a
+    // `dimensions` key other than 2 or 3 is refused by name.
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, _) = tiny_scene_and_reference(dir.path());
+    let channels = dir.path().join("ref").join("channels.json");
+    let mut meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&channels).unwrap()).unwrap();
+    meta["simulation"] = "k-wave-python 0.6.2, 2-D (x, z); scattered field".into();
+    std::fs::write(&channels, meta.to_string()).unwrap();
+    let grad = |scene: &Path, out: &str| {
+        let out = dir.path().join(out);
+        let o = usray(&[
+            "grad",
+            scene.to_str().unwrap(),
+            "--reference",
+            channels.to_str().unwrap(),
+            "--params",
+            "materials.target.roughness",
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ]);
+        let v: Option<serde_json::Value> = std::fs::read_to_string(out.join("grad.json"))
+            .ok()
+            .map(|t| serde_json::from_str(&t).unwrap());
+        (o, v)
+    };
+    let (o, unset) = grad(&scene, "unset");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("traced in 2-D") && err.contains("`simulation`"),
+        "{err}"
+    );
+    let three = dir.path().join("three.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(&three, text.replace("seed = 1", "seed = 1\ndimensions = 3")).unwrap();
+    let (o, explicit) = grad(&three, "three");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && !err.contains("2-D"), "{err}");
+    // The two traces differ (the 3-D one is the data's own scene).
+    assert_ne!(unset.unwrap()["loss"], explicit.unwrap()["loss"]);
+    meta["dimensions"] = 4.into();
+    std::fs::write(&channels, meta.to_string()).unwrap();
+    let (o, _) = grad(&scene, "bad");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("channels.json") && err.contains("`dimensions` = 4"),
+        "{err}"
+    );
+}

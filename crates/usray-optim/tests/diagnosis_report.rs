@@ -54,6 +54,7 @@ fn report_writes_markdown_and_json_of_every_round() {
         measured_path: Path::new("measured.npy"),
         measured: &measured,
         wall_s: 1.5,
+        dimensions_note: None,
     };
     let dir = tempfile::tempdir().unwrap();
     report.write(dir.path()).unwrap();
@@ -108,10 +109,15 @@ fn report_writes_markdown_and_json_of_every_round() {
             "timings",
             "residual_kinds",
             "wall_seconds",
+            "dimensions",
+            "dimensions_from_data",
             "rounds",
         ]
     );
     assert_eq!(v["wall_seconds"], 1.5);
+    // A scene that leaves its dimensions unset, compared with a B-mode: 3-D.
+    assert_eq!(v["dimensions"], 3);
+    assert!(v["dimensions_from_data"].is_null());
     // The cylinder is solid, so a wall is a candidate and every model renders
     // at two bounces more than the scene's; the report says so.
     assert_eq!(v["max_bounces"], scene.acquisition.max_bounces + 2);
@@ -146,6 +152,7 @@ fn report_refuses_no_rounds_and_a_measured_image_off_the_grid() {
         measured_path: Path::new("measured.npy"),
         measured: &measured,
         wall_s: 0.0,
+        dimensions_note: None,
     };
     let err = none.markdown().unwrap_err().to_string();
     assert!(err.contains("at least one round"), "{err}");

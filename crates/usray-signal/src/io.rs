@@ -281,6 +281,91 @@ pub fn read_channels(path: impl AsRef<Path>) -> Result<ChannelData> {
     })
 }
 
+/// How many spatial dimensions the simulation that made a channel file had,
+/// as the file declares it, and where it says so.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DeclaredDimensions {
+    /// 2 or 3.
+    pub dimensions: u8,
+    /// The key and text that declare it (for a report).
+    pub evidence: String,
+}
+
+/// The spatial dimensions the channel data at `path` (its `.json` sidecar)
+/// declare: an optional top-level `"dimensions": 2 | 3` (CONTRACT §2), else a
+/// provenance text that names a 2-D simulation, `2-D` or `2D` as a word in
+/// `simulation` or in `generator.tool` (what k-Wave's generator in
+/// `tools/kwave` and the PyMUST reference data write: `"k-wave-python 0.6.2,
+/// 2-D (x, z); …"`, `"PyMUST SIMUS (2-D)"`). `None` when the file says
+/// nothing of it, as a scanner's data do.
+///
+/// ```
+/// use usray_signal::io::declared_dimensions_of;
+/// let v = serde_json::json!({"simulation": "k-wave-python 0.6.2, 2-D (x, z); scattered field"});
+/// assert_eq!(declared_dimensions_of(&v).unwrap().unwrap().dimensions, 2);
+/// let v = serde_json::json!({"generator": {"tool": "PyMUST SIMUS (2-D)"}});
+/// assert_eq!(declared_dimensions_of(&v).unwrap().unwrap().dimensions, 2);
+/// let v = serde_json::json!({"dimensions": 3, "simulation": "2-D"});
+/// assert_eq!(declared_dimensions_of(&v).unwrap().unwrap().dimensions, 3);
+/// assert!(declared_dimensions_of(&serde_json::json!({"source": "Verasonics"})).unwrap().is_none());
+/// assert!(declared_dimensions_of(&serde_json::json!({"simulation": "a 2-Dimensional grid? no: 12-D"})).unwrap().is_none());
+/// assert!(declared_dimensions_of(&serde_json::json!({"dimensions": 4})).is_err());
+/// ```
+///
+/// # Errors
+/// A `dimensions` key that is not 2 or 3 (a message naming it).
+pub fn declared_dimensions_of(
+    v: &serde_json::Value,
+) -> std::result::Result<Option<DeclaredDimensions>, String> {
+    if let Some(d) = v.get("dimensions") {
+        return match d.as_u64() {
+            Some(n @ (2 | 3)) => Ok(Some(DeclaredDimensions {
+                dimensions: n as u8,
+                evidence: format!("`dimensions` = {n}"),
+            })),
+            _ => Err(format!("`dimensions` = {d}: expected 2 or 3")),
+        };
+    }
+    let names_2d = |text: &str| {
+        let bytes = text.as_bytes();
+        ["2-D", "2D"].iter().any(|w| {
+            text.match_indices(w).any(|(i, _)| {
+                let before = i.checked_sub(1).map(|k| bytes[k]);
+                let after = bytes.get(i + w.len()).copied();
+                let word = |b: Option<u8>| b.is_none_or(|b| !b.is_ascii_alphanumeric());
+                word(before) && word(after)
+            })
+        })
+    };
+    for (key, text) in [
+        ("simulation", v.get("simulation")),
+        (
+            "generator.tool",
+            v.get("generator").and_then(|g| g.get("tool")),
+        ),
+    ] {
+        if let Some(text) = text.and_then(|t| t.as_str()).filter(|t| names_2d(t)) {
+            return Ok(Some(DeclaredDimensions {
+                dimensions: 2,
+                evidence: format!("`{key}` = \"{text}\""),
+            }));
+        }
+    }
+    Ok(None)
+}
+
+/// [`declared_dimensions_of`] the `.json` sidecar of the channel data at
+/// `path` (either file, or the stem).
+///
+/// # Errors
+/// A sidecar that cannot be read or parsed, or a bad `dimensions` key
+/// (errors name the file).
+pub fn declared_dimensions(path: impl AsRef<Path>) -> Result<Option<DeclaredDimensions>> {
+    let (jpath, _) = channel_paths(path);
+    let value = read_json(&jpath)?;
+    declared_dimensions_of(&value).map_err(|e| SignalError::format(&jpath, e))
+}
+
 /// The first sidecar key whose value does not have its type (serde_json's
 /// message names the type, not the key).
 fn bad_field(v: &serde_json::Value) -> Option<String> {

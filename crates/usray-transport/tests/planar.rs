@@ -5,6 +5,7 @@
 mod common;
 use common::{header, mean_se};
 use usray_transport::integrator::{element_stack, trace_path_casts, TraceSettings};
+use usray_transport::scene::Dimensions;
 use usray_transport::{render, RenderOptions, Scene};
 
 /// A scene from the tests' header with plane-wave emission (the default),
@@ -178,10 +179,10 @@ fn dimensions_other_than_2_or_3_are_refused_by_name() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("dimensions") && e.contains("2 or 3"), "{e}");
-    // A written 3-D scene leaves the key out; a 2-D one keeps it.
+    // A scene that leaves the key out is written without it; a 2-D one keeps it.
     let three = Scene::from_toml_str(&header(8, 0.27e-3, "[0.0]", 4, 2), "<3d>", ".").unwrap();
     assert!(!three.to_toml_string().contains("dimensions"));
     let two = scene(true, 4, "");
     let back = Scene::from_toml_str(&two.to_toml_string(), "<2d>", ".").unwrap();
-    assert!(back.acquisition.dimensions.is_planar());
+    assert_eq!(back.acquisition.dimensions, Some(Dimensions::Two));
 }

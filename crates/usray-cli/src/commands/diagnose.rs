@@ -9,7 +9,6 @@ use crate::plots::{residual_figure, Grid};
 use anyhow::Result;
 use std::path::Path;
 use usray_optim::{diagnose_compound, DiagnoseOptions, Report};
-use usray_transport::Scene;
 
 /// Settings of `usray diagnose`.
 pub struct DiagnoseArgs {
@@ -46,7 +45,7 @@ const CHECKPOINT: &str = "diagnose.checkpoint.json";
 
 /// Runs the diagnosis and writes `diagnosis.json`, `report.md` and the images.
 pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Common) -> Result<()> {
-    let scene = Scene::load(scene_path)?;
+    let (scene, dimensions_note) = super::calib::load_scene_for(scene_path, measured)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
     anyhow::ensure!(args.rounds >= 1, "--rounds must be at least 1");
     anyhow::ensure!(
@@ -119,6 +118,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         measured_path: measured,
         measured: &measured_img,
         wall_s: wall,
+        dimensions_note: dimensions_note.as_deref(),
     };
     out.write_json("diagnosis.json", &report.json()?)?;
     let settings = scene.imaging_settings();

@@ -35,6 +35,7 @@ use usray_transport::Scene;
 ///     measured_path: Path::new("measured/bmode.npy"),
 ///     measured: &measured,
 ///     wall_s: t.elapsed().as_secs_f64(),
+///     dimensions_note: None,
 /// };
 /// report.write(Path::new("diagnosis")).unwrap(); // report.md, diagnosis.json
 /// ```
@@ -53,6 +54,10 @@ pub struct Report<'a> {
     pub measured: &'a [f64],
     /// Wall time of the whole diagnosis, seconds.
     pub wall_s: f64,
+    /// Why the scene is traced in 2-D when its file leaves the dimensions
+    /// unset and the measured data declare a 2-D simulation (the CLI's
+    /// sentence), else `None`.
+    pub dimensions_note: Option<&'a str>,
 }
 
 impl Report<'_> {
@@ -84,6 +89,18 @@ impl Report<'_> {
         let mut json = serde_json::to_value(d).map_err(unserialisable)?;
         json["residual_kinds"] = serde_json::to_value(&d.residual).map_err(unserialisable)?;
         json["wall_seconds"] = self.wall_s.into();
+        json["dimensions"] = if self
+            .scene
+            .acquisition
+            .dimensions
+            .is_some_and(|d| d.is_planar())
+        {
+            2
+        } else {
+            3
+        }
+        .into();
+        json["dimensions_from_data"] = self.dimensions_note.into();
         json["rounds"] = serde_json::Value::Array(
             self.rounds
                 .iter()
@@ -264,6 +281,11 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         }
     )?;
     writeln!(r, "{}\n", comparison_sentence(d, base))?;
+    if let Some(note) = report.dimensions_note {
+        writeln!(r, "Every model was {note}.\n")?;
+    } else if base.acquisition.dimensions.is_some_and(|d| d.is_planar()) {
+        writeln!(r, "Every model was traced in 2-D (`acquisition.dimensions = 2`): everything stays in the `xz` plane, as in data simulated in 2-D.\n")?;
+    }
     if d.max_bounces > base.acquisition.max_bounces {
         writeln!(r, "Every model was rendered at **{} bounces**, the scene's {} and {} more: a `wall_thickness` candidate hollows a solid cylinder, and a path then meets more surfaces before the far wall (at the scene's limit the hollowed cylinder would lose its far wall, and a true wall would look worse than none).\n", d.max_bounces, base.acquisition.max_bounces, d.max_bounces - base.acquisition.max_bounces)?;
     }

@@ -102,9 +102,11 @@ pub struct Acquisition {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub receivers_per_event: Option<usize>,
     /// Spatial dimensions of the transport: 3 (the default) or 2, for data
-    /// simulated in 2-D (`dimensions = 2`; [`Dimensions`]).
-    #[serde(default, skip_serializing_if = "Dimensions::is_default")]
-    pub dimensions: Dimensions,
+    /// simulated in 2-D (`dimensions = 2`; [`Dimensions`]). Unset, a command
+    /// that compares with measured data follows what they declare
+    /// (`usray_signal::io::declared_dimensions`), else 3.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dimensions: Option<Dimensions>,
 }
 
 /// One `[[acquisition.transmits]]` entry (CONTRACT §3): `kind = "plane_wave"`
@@ -185,10 +187,6 @@ pub enum Dimensions {
 }
 
 impl Dimensions {
-    /// `true` for the default (3), which a written scene leaves out.
-    pub fn is_default(&self) -> bool {
-        *self == Self::Three
-    }
     /// `true` in 2-D.
     pub fn is_planar(&self) -> bool {
         *self == Self::Two
