@@ -14,8 +14,8 @@
 use std::path::Path;
 use usray::optim::blind::{measured_image, BlindOptions, Draw};
 use usray::optim::{
-    catalogue, diagnose, diagnosis_bounces, load_reference, mean_and_se, names_an_effect,
-    DiagnoseOptions, Diagnosis, Objective,
+    catalogue, diagnose, diagnosis_bounces, follow_declared_dimensions, load_reference,
+    mean_and_se, names_an_effect, DiagnoseOptions, Diagnosis, Objective,
 };
 use usray::transport::scene::Sampler;
 use usray::transport::{RenderOptions, Scene};
@@ -210,8 +210,13 @@ fn tier_a_sphere_without_an_effect_names_none() {
 /// percent of its excess fails here first.
 #[test]
 fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
-    let base = Scene::load("bench/kwave/g1.toml").unwrap();
-    let measured = load_reference(Path::new("bench/kwave/data/g1_wall.json"), &base).unwrap();
+    let mut base = Scene::load("bench/kwave/g1.toml").unwrap();
+    let data = Path::new("bench/kwave/data/g1_wall.json");
+    // The data declare a 2-D simulation: traced in 2-D, as `usray diagnose` does.
+    assert!(follow_declared_dimensions(&mut base, data)
+        .unwrap()
+        .is_some());
+    let measured = load_reference(data, &base).unwrap();
     let _serial = ONE_AT_A_TIME
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);

@@ -6,7 +6,9 @@
 //! `docs/diagnosis.md` ("How well it works", tier (c)).
 
 use std::path::Path;
-use usray::optim::{diagnose, load_reference, DiagnoseOptions, Diagnosis};
+use usray::optim::{
+    diagnose, follow_declared_dimensions, load_reference, DiagnoseOptions, Diagnosis,
+};
 use usray::signal::{import_mat, BMode};
 use usray::transport::{RenderOptions, Scene};
 
@@ -76,7 +78,12 @@ fn pymust_disk_is_volume_scattering_inside_the_disk() {
     let Some(path) = usray_testdata::data_file("peers/disk.json") else {
         return;
     };
-    let scene = ci_scene("pymust_disk.toml");
+    let mut scene = ci_scene("pymust_disk.toml");
+    // The data declare a 2-D simulation (SIMUS): traced in 2-D, as
+    // `usray diagnose` does.
+    assert!(follow_declared_dimensions(&mut scene, &path)
+        .unwrap()
+        .is_some());
     let measured = load_reference(&path, &scene).unwrap();
     check_volume_scattering_inside("PyMUST disk", &diagnose_ci(&scene, &measured));
 }

@@ -68,7 +68,7 @@ pub use objective::{
     PAIRED_SEED_OFFSET,
 };
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
-pub use reference::{load_reference, load_reference_frames};
+pub use reference::{follow_declared_dimensions, load_reference, load_reference_frames};
 pub use spread::{linearised_spread, parameter_spread};
 pub use usray_transport::scene::ParamGroup;
 

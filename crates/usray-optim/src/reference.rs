@@ -12,6 +12,39 @@ use usray_signal::io::read_npy;
 use usray_signal::{read_channels, BMode, ChannelData, ChannelMeta};
 use usray_transport::Scene;
 
+/// Traces `scene` in 2-D when it leaves `acquisition.dimensions` unset and
+/// the measured data at `measured` are channel data that declare a 2-D
+/// simulation ([`usray_signal::io::declared_dimensions`]: k-Wave's 2-D solver,
+/// PyMUST's `simus`); returns the sentence saying so, for a report. A scene
+/// that sets its dimensions, a B-mode reference and data that declare nothing
+/// leave the scene as it is (`None`).
+///
+/// # Errors
+/// A channel sidecar that cannot be read, or a `dimensions` key in it that is
+/// not 2 or 3 (naming the file).
+pub fn follow_declared_dimensions(
+    scene: &mut Scene,
+    measured: &Path,
+) -> Result<Option<String>, OptimError> {
+    use usray_transport::scene::Dimensions;
+    let is_channels = measured
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if scene.acquisition.dimensions.is_some() || !is_channels {
+        return Ok(None);
+    }
+    let declared = usray_signal::io::declared_dimensions(measured)?;
+    let Some(declared) = declared.filter(|d| d.dimensions == 2) else {
+        return Ok(None);
+    };
+    scene.acquisition.dimensions = Some(Dimensions::Two);
+    Ok(Some(format!(
+        "traced in 2-D (`acquisition.dimensions = 2`): the scene leaves the dimensions unset and {} declares a 2-D simulation ({}); set `acquisition.dimensions = 3` in the scene to trace in 3-D",
+        measured.display(),
+        declared.evidence
+    )))
+}
+
 /// Loads `path` as a reference B-mode `[nz, nx]` (row-major) on `scene`'s grid.
 ///
 /// # Errors

@@ -407,37 +407,20 @@ pub fn progress_bar(quiet: bool, len: u64, prefix: &str) -> indicatif::ProgressB
 }
 
 /// The scene at `scene_path` for a comparison with the measured data at
-/// `reference`: when the scene leaves `acquisition.dimensions` unset and the
-/// reference is channel data that declare a 2-D simulation
-/// (`usray_signal::io::declared_dimensions`: k-Wave's 2-D solver, PyMUST's
-/// `simus`), it is traced in 2-D, and the sentence saying so (printed to
-/// standard error) is returned for the report.
+/// `reference`, traced in the dimensions those data declare when the scene
+/// leaves them unset ([`usray_optim::follow_declared_dimensions`]); the
+/// sentence saying so is printed to standard error and returned for the
+/// report.
 pub fn load_scene_for(
     scene_path: &std::path::Path,
     reference: &std::path::Path,
 ) -> Result<(Scene, Option<String>)> {
-    use usray_transport::scene::Dimensions;
     let mut scene = Scene::load(scene_path)?;
-    let is_channels = reference
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    if scene.acquisition.dimensions.is_some() || !is_channels {
-        return Ok((scene, None));
+    let note = usray_optim::follow_declared_dimensions(&mut scene, reference)?;
+    if let Some(note) = &note {
+        eprintln!("usray: {note}");
     }
-    let Some(declared) = usray_signal::io::declared_dimensions(reference)? else {
-        return Ok((scene, None));
-    };
-    if declared.dimensions != 2 {
-        return Ok((scene, None));
-    }
-    scene.acquisition.dimensions = Some(Dimensions::Two);
-    let note = format!(
-        "traced in 2-D (`acquisition.dimensions = 2`): the scene leaves the dimensions unset and {} declares a 2-D simulation ({}); set `acquisition.dimensions = 3` in the scene to trace in 3-D",
-        reference.display(),
-        declared.evidence
-    );
-    eprintln!("usray: {note}");
-    Ok((scene, Some(note)))
+    Ok((scene, note))
 }
 
 /// Builds the objective of `grad`/`fit`: scene, reference, parameters, render
