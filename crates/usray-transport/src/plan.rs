@@ -159,6 +159,8 @@ pub struct AcquisitionPlan {
     pub imaging_sound_speed_m_s: f64,
     /// The probe as the channel metadata describes it.
     probe: ProbeMeta,
+    /// Traced in 2-D (`acquisition.dimensions = 2`): the channel metadata say so.
+    planar: bool,
 }
 
 impl AcquisitionPlan {
@@ -203,6 +205,7 @@ impl AcquisitionPlan {
             },
             imaging_sound_speed_m_s: c,
             probe: scene.probe_meta(),
+            planar: a.dimensions.is_some_and(|d| d.is_planar()),
         }
     }
 
@@ -211,8 +214,14 @@ impl AcquisitionPlan {
         self.transmits.len() * self.elements.len() * self.grid.n_samples
     }
 
-    /// The channel-data metadata (CONTRACT §2).
+    /// The channel-data metadata (CONTRACT §2), with `"dimensions": 2` for a
+    /// 2-D scene (data that declare their dimensions are traced in them when
+    /// they are compared with a scene that leaves its own unset).
     pub fn channel_meta(&self) -> ChannelMeta {
+        let mut extra = serde_json::Map::new();
+        if self.planar {
+            extra.insert("dimensions".into(), 2.into());
+        }
         ChannelMeta {
             format: usray_signal::channels::CHANNELS_FORMAT.to_string(),
             sampling_frequency_hz: self.grid.fs_hz,
@@ -221,7 +230,7 @@ impl AcquisitionPlan {
             center_frequency_hz: self.pulse.center_frequency_hz,
             probe: self.probe.clone(),
             transmits: self.transmits.iter().map(|t| t.meta.clone()).collect(),
-            extra: Default::default(),
+            extra,
         }
     }
 }

@@ -4,7 +4,9 @@
 
 mod common;
 use common::{header, mean_se};
+use usray_signal::io::declared_dimensions_of;
 use usray_transport::integrator::{element_stack, trace_path_casts, TraceSettings};
+use usray_transport::plan::AcquisitionPlan;
 use usray_transport::scene::Dimensions;
 use usray_transport::{render, RenderOptions, Scene};
 
@@ -185,4 +187,9 @@ fn dimensions_other_than_2_or_3_are_refused_by_name() {
     let two = scene(true, 4, "");
     let back = Scene::from_toml_str(&two.to_toml_string(), "<2d>", ".").unwrap();
     assert_eq!(back.acquisition.dimensions, Some(Dimensions::Two));
+    // A 2-D render's channel data declare it; a 3-D one's say nothing.
+    let meta = |s: &Scene| serde_json::to_value(AcquisitionPlan::new(s).channel_meta()).unwrap();
+    let declared = declared_dimensions_of(&meta(&two)).unwrap().unwrap();
+    assert_eq!(declared.dimensions, 2);
+    assert!(declared_dimensions_of(&meta(&three)).unwrap().is_none());
 }
