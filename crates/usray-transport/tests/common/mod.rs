@@ -158,3 +158,31 @@ pub fn ad_and_fd(scene: &usray_transport::Scene, params: &[(&str, f64)]) -> Vec<
         })
         .collect()
 }
+
+/// Upper-tail probability of χ² with `k` degrees of freedom by the
+/// Wilson–Hilferty normal approximation (accurate to ~1e-3 for k ≥ 30).
+pub fn chi2_pvalue(x: f64, k: f64) -> f64 {
+    let z = ((x / k).powf(1.0 / 3.0) - (1.0 - 2.0 / (9.0 * k))) / (2.0 / (9.0 * k)).sqrt();
+    0.5 * erfc(z / std::f64::consts::SQRT_2)
+}
+
+/// Complementary error function (Numerical Recipes erfcc, |error| < 1.2e-7).
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
+    if x >= 0.0 {
+        r
+    } else {
+        2.0 - r
+    }
+}
