@@ -1,6 +1,7 @@
 //! GGX microfacet interface: χ² test of the visible-normal sampler against its
 //! density, and the sampled-weight estimator against the numerically integrated
-//! BSDF (reflection + transmission).
+//! BSDF (reflection + transmission); the tracer's one-pass `eval_pdf` against
+//! the reference `eval` and `pdf`, in 3-D and in 2-D (`ggx_planar`).
 
 mod common;
 use common::chi2_pvalue;
@@ -153,8 +154,13 @@ fn sampled_weight_matches_integrated_bsdf() {
     }
 }
 
-/// Random unit vector from dimensions `d`, `d + 1` of `s`.
-fn unit(s: &PathSampler, d: u32) -> Vec3<f64> {
+/// Random unit vector from dimensions `d`, `d + 1` of `s`; in the `xz` plane
+/// (from dimension `d` alone) when `planar`.
+fn unit(s: &PathSampler, d: u32, planar: bool) -> Vec3<f64> {
+    if planar {
+        let a = 2.0 * std::f64::consts::PI * s.uniform(0, d);
+        return Vec3::new(a.sin(), 0.0, a.cos());
+    }
     let z = 2.0 * s.uniform(0, d) - 1.0;
     let phi = 2.0 * std::f64::consts::PI * s.uniform(0, d + 1);
     let r = (1.0 - z * z).sqrt();
@@ -164,82 +170,106 @@ fn unit(s: &PathSampler, d: u32) -> Vec3<f64> {
 #[test]
 fn eval_pdf_agrees_with_eval_and_pdf() {
     // Reflection and transmission directions around tilted normals, for media
-    // faster and slower than the incident one (the slower one has TIR lobes).
-    let mut checked = [0usize; 2];
-    for &(alpha, c2, z2) in &[(0.25f64, 1600.0f64, 1.75f64), (0.6, 1300.0, 1.2)] {
-        let iface = Interface {
-            c1: 1540.0,
-            c2,
-            z1: 1.54,
-            z2,
-            alpha,
-            planar: false,
-        };
-        for k in 0..4000u32 {
-            let s = PathSampler::new(3, 0, 0, k);
-            let (mut n, wi, wo) = (unit(&s, 0), unit(&s, 2), unit(&s, 4));
-            if wi.dot(n) < 0.0 {
-                n = -n;
-            }
-            let (v, p) = iface.eval_pdf(wi, wo, n);
-            let (v0, p0) = (iface.eval(wi, wo, n), iface.pdf(wi, wo, n));
-            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
-            assert!(close(v, v0), "eval {v} vs {v0} at {wi:?} {wo:?} {n:?}");
-            assert!(close(p, p0), "pdf {p} vs {p0} at {wi:?} {wo:?} {n:?}");
-            if v0 != 0.0 {
-                checked[usize::from(wo.dot(n) < 0.0)] += 1;
+    // faster and slower than the incident one (the slower one has TIR lobes),
+    // in 3-D and in the plane (the 2-D model of `ggx_planar`).
+    for planar in [false, true] {
+        let mut checked = [0usize; 2];
+        for &(alpha, c2, z2) in &[(0.25f64, 1600.0f64, 1.75f64), (0.6, 1300.0, 1.2)] {
+            let iface = Interface {
+                c1: 1540.0,
+                c2,
+                z1: 1.54,
+                z2,
+                alpha,
+                planar,
+            };
+            for k in 0..4000u32 {
+                let s = PathSampler::new(3, 0, 0, k);
+                let (mut n, wi, wo) = (
+                    unit(&s, 0, planar),
+                    unit(&s, 2, planar),
+                    unit(&s, 4, planar),
+                );
+                if wi.dot(n) < 0.0 {
+                    n = -n;
+                }
+                let (v, p) = iface.eval_pdf(wi, wo, n);
+                let (v0, p0) = (iface.eval(wi, wo, n), iface.pdf(wi, wo, n));
+                let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
+                assert!(close(v, v0), "eval {v} vs {v0} at {wi:?} {wo:?} {n:?}");
+                assert!(close(p, p0), "pdf {p} vs {p0} at {wi:?} {wo:?} {n:?}");
+                if v0 != 0.0 {
+                    checked[usize::from(wo.dot(n) < 0.0)] += 1;
+                }
             }
         }
+        assert!(
+            checked.iter().all(|&c| c > 100),
+            "planar {planar}: cases {checked:?}"
+        );
     }
-    assert!(checked.iter().all(|&c| c > 100), "cases: {checked:?}");
 }
 
 #[test]
 fn eval_pdf_derivatives_agree_with_eval_and_pdf() {
     // The same in forward-mode AD: partials with respect to the roughness, the
-    // other medium's speed and a tilt of the normal agree with those of `eval`
-    // and of the (frame-based) `pdf`, which the MIS weights differentiate.
+    // other medium's speed and a tilt of the normal (about x in 3-D, about y
+    // in the plane) agree with those of `eval` and of the (frame-based) `pdf`,
+    // which the MIS weights differentiate.
     type D = Dual<3>;
-    let mut checked = [0usize; 2];
-    for &(alpha, c2, z2) in &[(0.25f64, 1600.0f64, 1.75f64), (0.6, 1300.0, 1.2)] {
-        let iface = Interface {
-            c1: D::constant(1540.0),
-            c2: D::variable(c2, 1),
-            z1: D::constant(1.54),
-            z2: D::constant(z2),
-            alpha: D::variable(alpha, 0),
-            planar: false,
-        };
-        for k in 0..2000u32 {
-            let s = PathSampler::new(4, 0, 0, k);
-            let (mut n, wi, wo) = (unit(&s, 0), unit(&s, 2), unit(&s, 4));
-            if wi.dot(n) < 0.0 {
-                n = -n;
-            }
-            let lift =
-                |v: Vec3<f64>| Vec3::new(D::constant(v.x), D::constant(v.y), D::constant(v.z));
-            // Tilt the normal about x by a variable angle (0 at the point).
-            let tilt = D::variable(0.0, 2);
-            let (c, sn) = (tilt.cos(), tilt.sin());
-            let nl = lift(n);
-            let n_d = Vec3::new(nl.x, nl.y * c - nl.z * sn, nl.y * sn + nl.z * c);
-            let (wi_d, wo_d) = (lift(wi), lift(wo));
-            let (v, p) = iface.eval_pdf(wi_d, wo_d, n_d);
-            let (v0, p0) = (iface.eval(wi_d, wo_d, n_d), iface.pdf(wi_d, wo_d, n_d));
-            let close = |a: D, b: D| {
-                let scale = a.re.abs().max(b.re.abs());
-                (a.re - b.re).abs() <= 1e-12 * scale
-                    && a.eps
-                        .iter()
-                        .zip(&b.eps)
-                        .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(scale))
+    for planar in [false, true] {
+        let mut checked = [0usize; 2];
+        for &(alpha, c2, z2) in &[(0.25f64, 1600.0f64, 1.75f64), (0.6, 1300.0, 1.2)] {
+            let iface = Interface {
+                c1: D::constant(1540.0),
+                c2: D::variable(c2, 1),
+                z1: D::constant(1.54),
+                z2: D::constant(z2),
+                alpha: D::variable(alpha, 0),
+                planar,
             };
-            assert!(close(v, v0), "eval {v:?} vs {v0:?} at {wi:?} {wo:?} {n:?}");
-            assert!(close(p, p0), "pdf {p:?} vs {p0:?} at {wi:?} {wo:?} {n:?}");
-            if v0.re != 0.0 && p0.eps[0] != 0.0 && p0.eps[2] != 0.0 {
-                checked[usize::from(wo.dot(n) < 0.0)] += 1;
+            for k in 0..2000u32 {
+                let s = PathSampler::new(4, 0, 0, k);
+                let (mut n, wi, wo) = (
+                    unit(&s, 0, planar),
+                    unit(&s, 2, planar),
+                    unit(&s, 4, planar),
+                );
+                if wi.dot(n) < 0.0 {
+                    n = -n;
+                }
+                let lift =
+                    |v: Vec3<f64>| Vec3::new(D::constant(v.x), D::constant(v.y), D::constant(v.z));
+                // Tilt the normal by a variable angle (0 at the point).
+                let tilt = D::variable(0.0, 2);
+                let (c, sn) = (tilt.cos(), tilt.sin());
+                let nl = lift(n);
+                let n_d = if planar {
+                    Vec3::new(nl.x * c + nl.z * sn, nl.y, nl.z * c - nl.x * sn)
+                } else {
+                    Vec3::new(nl.x, nl.y * c - nl.z * sn, nl.y * sn + nl.z * c)
+                };
+                let (wi_d, wo_d) = (lift(wi), lift(wo));
+                let (v, p) = iface.eval_pdf(wi_d, wo_d, n_d);
+                let (v0, p0) = (iface.eval(wi_d, wo_d, n_d), iface.pdf(wi_d, wo_d, n_d));
+                let close = |a: D, b: D| {
+                    let scale = a.re.abs().max(b.re.abs());
+                    (a.re - b.re).abs() <= 1e-12 * scale
+                        && a.eps
+                            .iter()
+                            .zip(&b.eps)
+                            .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(scale))
+                };
+                assert!(close(v, v0), "eval {v:?} vs {v0:?} at {wi:?} {wo:?} {n:?}");
+                assert!(close(p, p0), "pdf {p:?} vs {p0:?} at {wi:?} {wo:?} {n:?}");
+                if v0.re != 0.0 && p0.eps[0] != 0.0 && p0.eps[2] != 0.0 {
+                    checked[usize::from(wo.dot(n) < 0.0)] += 1;
+                }
             }
         }
+        assert!(
+            checked.iter().all(|&c| c > 50),
+            "planar {planar}: cases {checked:?}"
+        );
     }
-    assert!(checked.iter().all(|&c| c > 50), "cases: {checked:?}");
 }

@@ -1,8 +1,8 @@
 //! The 2-D (flatland) GGX interface of `usray_transport::ggx_planar`: χ² test
 //! of its visible-normal sampler against its density, its sampled weights
-//! against the numerically integrated BSDF, and the tracer's one-pass
-//! `eval_pdf` against the reference `eval` and `pdf`, in values and in forward
-//! derivatives.
+//! against the numerically integrated BSDF, the density's integral against the
+//! share of valid samples, and the sampler's smoothness at normal incidence
+//! (`eval_pdf` against `eval` and `pdf`: `tests/ggx.rs`, for both models).
 
 mod common;
 use common::chi2_pvalue;
@@ -184,76 +184,6 @@ fn planar_pdf_integrates_to_the_share_of_valid_samples() {
             "transmission {ft} vs {p_t}"
         );
     }
-}
-
-#[test]
-fn planar_eval_pdf_agrees_with_eval_and_pdf() {
-    let mut checked = [0usize; 2];
-    for &(alpha, c2, z2) in &[(0.25f64, 1600.0f64, 1.75f64), (0.6, 1300.0, 1.2)] {
-        let iface = interface(alpha, c2, z2);
-        for k in 0..4000u32 {
-            let s = PathSampler::new(3, 0, 0, k);
-            let angle = |d| 2.0 * PI * s.uniform(0, d);
-            let (mut n, wi, wo) = (at(angle(0)), at(angle(1)), at(angle(2)));
-            if wi.dot(n) < 0.0 {
-                n = -n;
-            }
-            let (v, p) = iface.eval_pdf(wi, wo, n);
-            let (v0, p0) = (iface.eval(wi, wo, n), iface.pdf(wi, wo, n));
-            let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * a.abs().max(b.abs());
-            assert!(close(v, v0), "eval {v} vs {v0} at {wi:?} {wo:?} {n:?}");
-            assert!(close(p, p0), "pdf {p} vs {p0} at {wi:?} {wo:?} {n:?}");
-            if v0 != 0.0 {
-                checked[usize::from(wo.dot(n) < 0.0)] += 1;
-            }
-        }
-    }
-    assert!(checked.iter().all(|&c| c > 100), "cases: {checked:?}");
-}
-
-#[test]
-fn planar_eval_pdf_derivatives_agree_with_eval_and_pdf() {
-    // Partials with respect to the roughness, the other medium's speed and an
-    // in-plane tilt of the normal (a rotation about y).
-    type D = Dual<3>;
-    let mut checked = [0usize; 2];
-    for &(alpha, c2, z2) in &[(0.25f64, 1600.0f64, 1.75f64), (0.6, 1300.0, 1.2)] {
-        let iface = Interface {
-            c1: D::constant(1540.0),
-            c2: D::variable(c2, 1),
-            z1: D::constant(1.54),
-            z2: D::constant(z2),
-            alpha: D::variable(alpha, 0),
-            planar: true,
-        };
-        for k in 0..2000u32 {
-            let s = PathSampler::new(4, 0, 0, k);
-            let angle = |d| 2.0 * PI * s.uniform(0, d);
-            let lift = |a: D| Vec3::new(a.sin(), D::constant(0.0), a.cos());
-            let (mut an, ai, ao) = (angle(0), angle(1), angle(2));
-            if at(ai).dot(at(an)) < 0.0 {
-                an += PI;
-            }
-            let n = lift(D::variable(0.0, 2) + D::constant(an));
-            let (wi, wo) = (lift(D::constant(ai)), lift(D::constant(ao)));
-            let (v, p) = iface.eval_pdf(wi, wo, n);
-            let (v0, p0) = (iface.eval(wi, wo, n), iface.pdf(wi, wo, n));
-            let close = |a: D, b: D| {
-                let scale = a.re.abs().max(b.re.abs());
-                (a.re - b.re).abs() <= 1e-12 * scale
-                    && a.eps
-                        .iter()
-                        .zip(&b.eps)
-                        .all(|(x, y)| (x - y).abs() <= 1e-9 * x.abs().max(y.abs()).max(scale))
-            };
-            assert!(close(v, v0), "eval {v:?} vs {v0:?}");
-            assert!(close(p, p0), "pdf {p:?} vs {p0:?}");
-            if v0.re != 0.0 && p0.eps[0] != 0.0 && p0.eps[2] != 0.0 {
-                checked[usize::from(wo.dot(n).value() < 0.0)] += 1;
-            }
-        }
-    }
-    assert!(checked.iter().all(|&c| c > 100), "cases: {checked:?}");
 }
 
 #[test]

@@ -135,19 +135,28 @@ fn sampling_dependent_parameters_match_finite_differences() {
     // coefficients and MIS weights. Steps as above (rel 1e-9, translations and
     // speeds; the FD error was measured below 4e-7 for each).
     let scene = scene_0deg("cylinder.toml", CYL_ANGLES, &[]);
-    let r = check(
-        &scene,
-        &[
-            ("objects.cylinder.radius_m", 1e-9),
-            ("materials.target.impedance_mrayl", 1e-9),
-            ("materials.target.roughness", 1e-7),
-            ("probe.pitch_m", 1e-9),
-            ("medium.sound_speed_m_s", 1e-9),
-            ("materials.target.sound_speed_m_s", 1e-9),
-        ],
-    );
+    assert_tight("3-D cylinder", &check(&scene, SAMPLING_PARAMS));
+}
+
+/// The cylinder's parameters that change sampling densities, microfacet
+/// samples, Fresnel coefficients and MIS weights, with their relative steps.
+const SAMPLING_PARAMS: &[(&str, f64)] = &[
+    ("objects.cylinder.radius_m", 1e-9),
+    ("materials.target.impedance_mrayl", 1e-9),
+    ("materials.target.roughness", 1e-7),
+    ("probe.pitch_m", 1e-9),
+    ("medium.sound_speed_m_s", 1e-9),
+    ("materials.target.sound_speed_m_s", 1e-9),
+];
+
+/// Every (AD, FD, relative difference) of `r` non-zero and within 1e-5.
+fn assert_tight(what: &str, r: &[(f64, f64, f64)]) {
     for (i, (ad, fd, rel)) in r.iter().enumerate() {
-        assert!(*rel < 1e-5, "parameter {i}: AD {ad} FD {fd} rel {rel}");
+        assert!(*ad != 0.0, "{what} parameter {i}: zero gradient");
+        assert!(
+            *rel < 1e-5,
+            "{what} parameter {i}: AD {ad} FD {fd} rel {rel}"
+        );
     }
 }
 
@@ -200,21 +209,7 @@ fn planar_transport_matches_finite_differences() {
         "emission = \"plane_wave\"\ndimensions = 2",
     );
     let scene = scene_0deg("cylinder.toml", CYL_ANGLES, &[planar]);
-    let r = check(
-        &scene,
-        &[
-            ("objects.cylinder.radius_m", 1e-9),
-            ("materials.target.impedance_mrayl", 1e-9),
-            ("materials.target.roughness", 1e-7),
-            ("probe.pitch_m", 1e-9),
-            ("medium.sound_speed_m_s", 1e-9),
-            ("materials.target.sound_speed_m_s", 1e-9),
-        ],
-    );
-    for (i, (ad, fd, rel)) in r.iter().enumerate() {
-        assert!(*ad != 0.0, "parameter {i}: zero gradient");
-        assert!(*rel < 1e-5, "parameter {i}: AD {ad} FD {fd} rel {rel}");
-    }
+    assert_tight("2-D cylinder", &check(&scene, SAMPLING_PARAMS));
     let lumen = (
         "material = \"wall\"",
         "material = \"wall\"\nlumen_scatterer_density_per_mm3 = 5.0\nlumen_scatterer_strength = 0.3",
@@ -228,8 +223,5 @@ fn planar_transport_matches_finite_differences() {
             ("objects.tube.lumen_scatterer_strength", 1e-7),
         ],
     );
-    for (i, (ad, fd, rel)) in r.iter().enumerate() {
-        assert!(*ad != 0.0, "ring parameter {i}: zero gradient");
-        assert!(*rel < 1e-5, "ring parameter {i}: AD {ad} FD {fd} rel {rel}");
-    }
+    assert_tight("2-D ring", &r);
 }
