@@ -4,7 +4,7 @@
 //! the reference `eval` and `pdf`, in 3-D and in 2-D (`ggx_planar`).
 
 mod common;
-use common::chi2_pvalue;
+use common::assert_counts_follow;
 use usray_ad::{Dual, Real};
 use usray_geometry::Vec3;
 use usray_transport::ggx::{sample_vndf, vndf_pdf, Interface};
@@ -61,32 +61,12 @@ fn vndf_samples_follow_their_density_chi2() {
                 expected[i * n_phi + j] = acc / (sub * sub) as f64 * area * n as f64;
             }
         }
-        let (mut chi2, mut dof, mut small_o, mut small_e) = (0.0, 0usize, 0.0, 0.0);
-        for (o, e) in counts.iter().zip(&expected) {
-            if *e < 5.0 {
-                small_o += o;
-                small_e += e;
-            } else {
-                chi2 += (o - e).powi(2) / e;
-                dof += 1;
-            }
-        }
-        if small_e >= 5.0 {
-            chi2 += (small_o - small_e).powi(2) / small_e;
-            dof += 1;
-        }
-        let total_e: f64 = expected.iter().sum();
-        let p = chi2_pvalue(chi2, (dof - 1) as f64);
-        eprintln!(
-            "alpha {alpha}, θi {theta_i}: χ² = {chi2:.1}, dof {}, p = {p:.3}, Σexpected/N = {:.4}",
-            dof - 1,
-            total_e / n as f64
+        assert_counts_follow(
+            &counts,
+            &expected,
+            n,
+            &format!("alpha {alpha}, θi {theta_i}"),
         );
-        assert!(
-            (total_e / n as f64 - 1.0).abs() < 2e-3,
-            "density does not integrate to 1"
-        );
-        assert!(p > 1e-3, "χ² test failed: p = {p}");
     }
 }
 

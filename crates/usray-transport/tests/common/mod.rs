@@ -186,3 +186,35 @@ fn erfc(x: f64) -> f64 {
         2.0 - r
     }
 }
+
+/// χ² test of sampled `counts` against `expected` counts of the same bins
+/// (`n` samples in all): bins expecting fewer than 5 are merged into one; the
+/// expected counts must sum to `n` within 0.2% (the density integrates to 1)
+/// and the p-value must exceed 1e-3.
+pub fn assert_counts_follow(counts: &[f64], expected: &[f64], n: usize, what: &str) {
+    let (mut chi2, mut dof, mut small_o, mut small_e) = (0.0, 0usize, 0.0, 0.0);
+    for (o, e) in counts.iter().zip(expected) {
+        if *e < 5.0 {
+            small_o += o;
+            small_e += e;
+        } else {
+            chi2 += (o - e).powi(2) / e;
+            dof += 1;
+        }
+    }
+    if small_e >= 5.0 {
+        chi2 += (small_o - small_e).powi(2) / small_e;
+        dof += 1;
+    }
+    let total = expected.iter().sum::<f64>() / n as f64;
+    let p = chi2_pvalue(chi2, (dof - 1) as f64);
+    eprintln!(
+        "{what}: χ² = {chi2:.1}, dof {}, p = {p:.3}, Σexpected/N = {total:.5}",
+        dof - 1
+    );
+    assert!(
+        (total - 1.0).abs() < 2e-3,
+        "{what}: density integrates to {total}"
+    );
+    assert!(p > 1e-3, "{what}: χ² test failed: p = {p}");
+}
