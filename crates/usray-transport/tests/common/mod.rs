@@ -166,20 +166,26 @@ pub fn chi2_pvalue(x: f64, k: f64) -> f64 {
     0.5 * erfc(z / std::f64::consts::SQRT_2)
 }
 
-/// Complementary error function (Numerical Recipes erfcc, |error| < 1.2e-7).
+/// Complementary error function (Numerical Recipes erfcc, |error| < 1.2e-7):
+/// `t·exp(−z² + P(t))` with `t = 1/(1 + z/2)` and the polynomial `P` by Horner's
+/// rule from its highest coefficient.
 fn erfc(x: f64) -> f64 {
+    const P: [f64; 10] = [
+        0.17087277,
+        -0.82215223,
+        1.48851587,
+        -1.13520398,
+        0.27886807,
+        -0.18628806,
+        0.09678418,
+        0.37409196,
+        1.00002368,
+        -1.26551223,
+    ];
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let r = t
-        * (-z * z - 1.26551223
-            + t * (1.00002368
-                + t * (0.37409196
-                    + t * (0.09678418
-                        + t * (-0.18628806
-                            + t * (0.27886807
-                                + t * (-1.13520398
-                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
-            .exp();
+    let poly = P.iter().fold(0.0, |acc, c| acc * t + c);
+    let r = t * (-z * z + poly).exp();
     if x >= 0.0 {
         r
     } else {
