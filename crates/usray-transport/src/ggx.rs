@@ -28,7 +28,9 @@
 //! (`wi = −d` for a ray travelling along `d`), `n` is the unit macro normal on the
 //! incident side (`wi·n > 0`); `wo` points away from the surface.
 //! A roughness below [`SMOOTH_ALPHA`] is treated as a perfectly smooth (delta)
-//! interface.
+//! interface. With [`Interface::planar`] (`acquisition.dimensions = 2`) the
+//! normal distribution, its sampler and the Jacobians are the flatland ones of
+//! [`crate::ggx_planar`], per radian; the weights and the code paths are these.
 
 use crate::fresnel::{fresnel, fresnel_ratio, reflect, refract};
 use crate::ggx_planar as planar;
