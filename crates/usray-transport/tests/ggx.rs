@@ -4,7 +4,7 @@
 //! the reference `eval` and `pdf`, in 3-D and in 2-D (`ggx_planar`).
 
 mod common;
-use common::assert_counts_follow;
+use common::{assert_counts_follow, mean_split_weight};
 use usray_ad::{Dual, Real};
 use usray_geometry::Vec3;
 use usray_transport::ggx::{sample_vndf, vndf_pdf, Interface};
@@ -89,25 +89,7 @@ fn sampled_weight_matches_integrated_bsdf() {
         let wi = Vec3::new(theta_i.sin(), 0.0, theta_i.cos());
         // Monte Carlo: mean weight and its standard error.
         let n = 200_000usize;
-        let (mut s1, mut s2) = (0.0, 0.0);
-        for k in 0..n {
-            let s = PathSampler::new(5, 1, 2, k as u32);
-            // Both continuations of the split: their weights add.
-            let w = iface
-                .scatter(wi, n_vec, s.uniform(1, 0), s.uniform(1, 1))
-                .map(|x| {
-                    [x.reflected, x.transmitted]
-                        .iter()
-                        .flatten()
-                        .map(|l| l.weight)
-                        .sum::<f64>()
-                })
-                .unwrap_or(0.0);
-            s1 += w;
-            s2 += w * w;
-        }
-        let mean = s1 / n as f64;
-        let se = ((s2 / n as f64 - mean * mean) / n as f64).sqrt();
+        let (mean, se) = mean_split_weight(&iface, wi, n_vec, n);
         // Quadrature of ∫ f(wi, wo)|wo·n| dwo over the sphere: midpoint rule in
         // (cos θo, φo), refined near the specular directions by a fine grid.
         let (n_c, n_p) = (1600, 720);

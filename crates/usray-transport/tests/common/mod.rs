@@ -224,3 +224,34 @@ pub fn assert_counts_follow(counts: &[f64], expected: &[f64], n: usize, what: &s
     );
     assert!(p > 1e-3, "{what}: χ² test failed: p = {p}");
 }
+
+/// Mean and standard error, over `n` samples keyed by `PathSampler::new(5, 1,
+/// 2, k)`, of the summed weight of both continuations of one split at `iface`
+/// (`wi` incident, `normal` on its side): the Monte Carlo estimate of
+/// `∫ f(wi, wo)|wo·n| dwo`.
+pub fn mean_split_weight(
+    iface: &usray_transport::ggx::Interface<f64>,
+    wi: usray_geometry::Vec3<f64>,
+    normal: usray_geometry::Vec3<f64>,
+    n: usize,
+) -> (f64, f64) {
+    let (mut s1, mut s2) = (0.0, 0.0);
+    for k in 0..n {
+        let s = usray_transport::rng::PathSampler::new(5, 1, 2, k as u32);
+        // Both continuations of the split: their weights add.
+        let w = iface
+            .scatter(wi, normal, s.uniform(1, 0), s.uniform(1, 1))
+            .map(|x| {
+                [x.reflected, x.transmitted]
+                    .iter()
+                    .flatten()
+                    .map(|l| l.weight)
+                    .sum::<f64>()
+            })
+            .unwrap_or(0.0);
+        s1 += w;
+        s2 += w * w;
+    }
+    let mean = s1 / n as f64;
+    (mean, ((s2 / n as f64 - mean * mean) / n as f64).sqrt())
+}
