@@ -116,6 +116,16 @@ fn forward_and_reverse_modes_agree_with_attenuation() {
     modes_agree(&scene);
 }
 
+/// The same traced in 2-D (`acquisition.dimensions = 2`): the planar
+/// microfacet sample and densities, and the connections' 1/r measure, recorded
+/// on the reverse tape.
+#[test]
+fn forward_and_reverse_modes_agree_in_2d() {
+    let mut scene = cylinder();
+    scene.acquisition.dimensions = Some(usray_transport::scene::Dimensions::Two);
+    modes_agree(&scene);
+}
+
 /// Reverse mode (12 parameters) against two forward calls of 6, and the bits
 /// of both with 1 and 2 threads.
 fn modes_agree(scene: &Scene) {
