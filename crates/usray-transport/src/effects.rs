@@ -221,11 +221,13 @@ impl ScattererField {
     /// ```
     #[inline]
     pub fn event_weight<T: Real>(&self, per_mm3: T) -> T {
-        let cells_per_mm = if self.planar { 1.0 } else { 2.0 };
+        // (1 mm/h)^k with h = ρ_g^{−1/3} mm: k = 2 (a ray's cross-section is
+        // an area), 1 in 2-D (a width).
+        let k = if self.planar { 1.0 } else { 2.0 };
         per_mm3
             .scale(1.0 / self.grid_per_mm3)
             .sqrt()
-            .scale(self.grid_per_mm3.powf(cells_per_mm / 3.0))
+            .scale(self.grid_per_mm3.powf(k / 3.0))
     }
 
     /// The scatterer of the cell containing point `p` (metres): its position

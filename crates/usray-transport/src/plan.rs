@@ -205,7 +205,7 @@ impl AcquisitionPlan {
             },
             imaging_sound_speed_m_s: c,
             probe: scene.probe_meta(),
-            planar: a.dimensions.is_some_and(|d| d.is_planar()),
+            planar: a.is_planar(),
         }
     }
 

@@ -89,17 +89,7 @@ impl Report<'_> {
         let mut json = serde_json::to_value(d).map_err(unserialisable)?;
         json["residual_kinds"] = serde_json::to_value(&d.residual).map_err(unserialisable)?;
         json["wall_seconds"] = self.wall_s.into();
-        json["dimensions"] = if self
-            .scene
-            .acquisition
-            .dimensions
-            .is_some_and(|d| d.is_planar())
-        {
-            2
-        } else {
-            3
-        }
-        .into();
+        json["dimensions"] = u8::from(self.scene.acquisition.dimensions.unwrap_or_default()).into();
         json["dimensions_from_data"] = self.dimensions_note.into();
         json["rounds"] = serde_json::Value::Array(
             self.rounds
@@ -283,7 +273,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     writeln!(r, "{}\n", comparison_sentence(d, base))?;
     if let Some(note) = report.dimensions_note {
         writeln!(r, "Every model was {note}.\n")?;
-    } else if base.acquisition.dimensions.is_some_and(|d| d.is_planar()) {
+    } else if base.acquisition.is_planar() {
         writeln!(r, "Every model was traced in 2-D (`acquisition.dimensions = 2`): everything stays in the `xz` plane, as in data simulated in 2-D.\n")?;
     }
     if d.max_bounces > base.acquisition.max_bounces {

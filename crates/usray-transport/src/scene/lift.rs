@@ -353,7 +353,7 @@ impl Scene {
                 None => get(ParamKey::medium(Field::SoundSpeed)),
             },
             emission: self.acquisition.emission,
-            planar: self.acquisition.dimensions.is_some_and(|d| d.is_planar()),
+            planar: self.acquisition.is_planar(),
         })
     }
 

@@ -109,6 +109,13 @@ pub struct Acquisition {
     pub dimensions: Option<Dimensions>,
 }
 
+impl Acquisition {
+    /// Traced in 2-D: `dimensions = 2` (unset is 3).
+    pub fn is_planar(&self) -> bool {
+        self.dimensions.is_some_and(|d| d.is_planar())
+    }
+}
+
 /// One `[[acquisition.transmits]]` entry (CONTRACT §3): `kind = "plane_wave"`
 /// with `angle_deg`, `"diverging"` with `virtual_source_m = [x, z]` (behind the
 /// array, `z < 0`) or `"focused"` with `focus_m = [x, z]` (in front, `z > 0`),
