@@ -308,6 +308,21 @@ impl<T: Real> Geometry<T> {
         }
     }
 
+    /// Curvature (1/m) at `hit` of its surface's cut through the `xz` plane,
+    /// signed against [`Hit::normal`]: positive where the solid is convex
+    /// (a cylinder's or sphere's outside), negative where concave (a tube's
+    /// inner surface), 0 on planes and on meshes (flat triangles). The 2-D
+    /// transport's wavefront curvature changes by it at every interface.
+    pub fn in_plane_curvature(&self, hit: &Hit<T>) -> T {
+        let (p, surface) = (hit.point, hit.surface);
+        match &self.objects[hit.object] {
+            Shape::Sphere(s) => s.in_plane_curvature(p, surface),
+            Shape::Cylinder(s) => s.in_plane_curvature(p, surface),
+            Shape::HollowCylinder(s) => s.in_plane_curvature(p, surface),
+            Shape::Slab(_) | Shape::HalfSpace(_) | Shape::Mesh(_) => T::zero(),
+        }
+    }
+
     /// The nearest hit with `t ∈ [t_min, t_max]` (metres): [`Geometry::find`] on
     /// the ray's values, then [`Geometry::hit_from`] in `T`.
     pub fn intersect(&self, ray: &Ray<T>, t_min: f64, t_max: f64) -> Option<Hit<T>> {

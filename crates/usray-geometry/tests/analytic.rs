@@ -233,3 +233,40 @@ fn invalid_parameters_are_rejected() {
         .unwrap_err();
     assert!(e.to_string().contains("thickness_m"), "{e}");
 }
+
+#[test]
+fn in_plane_curvature_is_signed_against_the_outward_normal() {
+    // Along the axis line x = 0 through a tube, a cylinder and a sphere whose
+    // centre is off the plane y = 0 (its cut at y = 0 a circle of radius
+    // √(r² − y_c²)); then a slab.
+    let mut g = Geometry::<f64>::new();
+    let (rr, th) = (0.004, 0.001);
+    g.add(HollowCylinder::new(Vec3::new(0.0, 0.0, 0.01), rr, th))
+        .unwrap();
+    g.add(Cylinder::new(Vec3::new(0.0, 0.0, 0.03), 0.002))
+        .unwrap();
+    g.add(Sphere::new(Vec3::new(0.0, 0.003, 0.05), 0.005))
+        .unwrap();
+    g.add(Slab::new(0.07, 0.08)).unwrap();
+    let dir = Vec3::new(0.0, 0.0, 1.0);
+    // Tube outer, inner, inner, outer; cylinder in, out; sphere in, out; slab top, bottom.
+    let want = [
+        1.0 / rr,
+        -1.0 / (rr - th),
+        -1.0 / (rr - th),
+        1.0 / rr,
+        500.0,
+        500.0,
+        250.0,
+        250.0,
+        0.0,
+        0.0,
+    ];
+    let mut origin = Vec3::new(0.0, 0.0, 0.0);
+    for (k, w) in want.into_iter().enumerate() {
+        let h = g.intersect(&Ray::new(origin, dir), EPS, 1.0).unwrap();
+        let kappa = g.in_plane_curvature(&h);
+        assert!(close(kappa, w, 1e-9 * w.abs().max(1.0)), "hit {k}: {kappa} vs {w}");
+        origin = h.point;
+    }
+}

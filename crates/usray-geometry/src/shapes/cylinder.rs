@@ -79,6 +79,13 @@ impl<T: Real> Cylinder<T> {
         )
     }
 
+    /// Curvature (1/m) of the cut through the `xz` plane at a surface point,
+    /// signed against the outward normal: `1/radius` (convex).
+    #[inline]
+    pub fn in_plane_curvature(&self, _p: Vec3<T>, _surface: u32) -> T {
+        self.radius.recip()
+    }
+
     /// Point strictly inside (values).
     pub fn contains(&self, p: [f64; 3]) -> bool {
         let r = self.radius.value();

@@ -60,14 +60,23 @@ impl<T: Real> HollowCylinder<T> {
         out
     }
 
-    /// Unit outward normal of the wall at a point of surface 0 (outer) or 1 (inner).
+    /// Curvature (1/m) of the cut through the `xz` plane at a surface point,
+    /// signed against the outward normal: `1/radius` on the outer surface
+    /// (convex), `−1/inner radius` on the inner one (the wall is concave
+    /// there: its outward normal points at the axis).
     #[inline]
-    pub fn normal_at(&self, p: Vec3<T>, surface: u32) -> Vec3<T> {
-        let k = if surface == 0 {
+    pub fn in_plane_curvature(&self, _p: Vec3<T>, surface: u32) -> T {
+        if surface == 0 {
             self.radius.recip()
         } else {
             -self.inner_radius().recip()
-        };
+        }
+    }
+
+    /// Unit outward normal of the wall at a point of surface 0 (outer) or 1 (inner).
+    #[inline]
+    pub fn normal_at(&self, p: Vec3<T>, surface: u32) -> Vec3<T> {
+        let k = self.in_plane_curvature(p, surface);
         Vec3::new(
             (p.x - self.center.x) * k,
             T::zero(),

@@ -54,6 +54,16 @@ impl<T: Real> Sphere<T> {
         (p - self.center) * self.radius.recip()
     }
 
+    /// Curvature (1/m) of the cut through the `xz` plane at a surface point
+    /// `p` of that plane, signed against the outward normal: the cut is a
+    /// circle about the centre's projection, of radius `|p − c|` in `xz`
+    /// (`√(r² − c_y²)`), convex.
+    #[inline]
+    pub fn in_plane_curvature(&self, p: Vec3<T>, _surface: u32) -> T {
+        let (dx, dz) = (p.x - self.center.x, p.z - self.center.z);
+        (dx * dx + dz * dz).sqrt().recip()
+    }
+
     /// Point strictly inside (values).
     pub fn contains(&self, p: [f64; 3]) -> bool {
         let c = self.center.value();

@@ -32,6 +32,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             stack,
             specular_chain,
             last_rough,
+            spread,
             ..
         } = b;
         let direct = specular_chain || last_rough.is_some();
@@ -62,7 +63,11 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     st.center_frequency,
                     t_array,
                 );
-                self.deposit(e, w * fd * mis * k, beta + b, tau);
+                let mut a = w * fd * mis * k;
+                if let Some(tube) = spread {
+                    a *= tube.advanced(t_array).pressure_factor();
+                }
+                self.deposit(e, a, beta + b, tau);
             }
         }
     }

@@ -3,6 +3,7 @@
 //! [`super`]: 3b and 5 in their own files).
 
 use super::context::PathCtx;
+use super::spreading::Spread;
 use super::volume::{Scatterers, Span};
 use super::Deposit;
 use crate::effects::{attenuation_and_exponent, ScattererField};
@@ -33,6 +34,8 @@ pub(super) struct Branch<T> {
     /// Rough vertices so far (connections through boundaries cover later
     /// transmissions; see the `integrator` module docs).
     pub(super) rough_vertices: u32,
+    /// The 2-D ray tube at `origin` (`None` in 3-D; see [`super::spreading`]).
+    pub(super) spread: Option<Spread<T>>,
     /// Index of the vertex this branch is heading to (1 = first interaction).
     pub(super) bounce: u32,
     /// Random numbers of this branch (keyed by the branch choices so far).
@@ -53,6 +56,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             mut beta,
             mut time,
             stack,
+            spread,
             bounce,
             sampler,
             ..
@@ -79,6 +83,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 origin,
                 dir,
                 s,
+                spread,
             };
             if let Some(obj) = stack.top() {
                 let src = Scatterers::new(
@@ -136,6 +141,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 w,
                 beta,
                 time,
+                spread: spread.map(|sp| sp.advanced(hit.t)),
                 ..branch
             },
             &medium,

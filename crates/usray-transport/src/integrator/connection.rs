@@ -4,6 +4,7 @@
 //! against the vertex's continuation hitting the element directly.
 
 use super::context::PathCtx;
+use super::spreading::Spread;
 use super::{Deposit, T_MIN};
 use crate::effects::attenuation_and_exponent;
 use crate::fresnel::fresnel;
@@ -96,7 +97,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     /// is the density (1/sr) with which the vertex's own continuation sampling
     /// would produce the connection direction (0 for volume scatterers): an
     /// unobstructed connection is then MIS-weighted against a direct array hit
-    /// of that continuation.
+    /// of that continuation. `tube` is the 2-D ray tube leaving `p` towards
+    /// the element (`None` in 3-D): the deposit takes its pressure factor at
+    /// the element ([`super::spreading`]; boundaries the line crosses are
+    /// crossed straight, as by the amplitude).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn connect(
         &mut self,
@@ -109,6 +113,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         link: &Link<T>,
         sel_w: f64,
         p_bsdf: T,
+        tube: Option<Spread<T>>,
     ) {
         let st = self.st;
         if f_cos.value() == 0.0 {
@@ -145,7 +150,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 } else {
                     T::one()
                 };
-                let a = amp * solid * fd.scale(sel_w) * mis;
+                let mut a = amp * solid * fd.scale(sel_w) * mis;
+                if let Some(tube) = tube {
+                    a *= tube.advanced(r).pressure_factor();
+                }
                 self.deposit(e, a, beta, time);
                 return;
             };

@@ -4,6 +4,7 @@
 
 use super::branch::Branch;
 use super::settings::TraceSettings;
+use super::spreading::Spread;
 use crate::probe::{cosine_hemisphere, face_point, from_element_frame, transmit_directivity};
 use crate::rng::{dim, PathSampler};
 use crate::scene::{Emission, Sampler, SceneT};
@@ -51,7 +52,7 @@ pub(super) fn emit<T: Real>(
     let wave = st.transmits[tx];
     let c_img = st.imaging_sound_speed;
     let firing_time = wave.element_delay_s(element.centre_m, c_img);
-    let (dir, w, time) = match st.emission {
+    let (dir, w, time, tube) = match st.emission {
         Emission::Cosine => {
             let (u1, u2) = (
                 sampler.uniform(0, dim::EMIT_U1),
@@ -74,7 +75,7 @@ pub(super) fn emit<T: Real>(
             }
             let w = transmit_directivity(kind, &element, dir) / T::from_f64(pdf * norm);
             // The element radiates as a whole at its firing time.
-            (dir, w, firing_time)
+            (dir, w, firing_time, Spread::point_source())
         }
         Emission::PlaneWave => {
             // Along the wave's ray through the emission point, weight
@@ -92,7 +93,8 @@ pub(super) fn emit<T: Real>(
                 TransmitWave::PlaneWave { .. } => firing_time,
                 _ => wave.arrival_time_s([origin.x, origin.z], c_img),
             };
-            (dir, transmit_directivity(kind, &element, dir), time)
+            let tube = Spread::wavefront(front_curvature(&wave, origin));
+            (dir, transmit_directivity(kind, &element, dir), time, tube)
         }
     };
     Some(Branch {
@@ -105,9 +107,23 @@ pub(super) fn emit<T: Real>(
         specular_chain: true,
         last_rough: None,
         rough_vertices: 0,
+        spread: st.planar.then_some(tube),
         bounce: 1,
         sampler,
     })
+}
+
+/// The in-plane curvature (1/m, positive diverging) of the transmitted
+/// wave's front at the point `p` of an element's face: 0 for a plane wave,
+/// `1/|p − v|` for a diverging wave from `v`, `−1/|f − p|` for a wave focused
+/// at `f` (the fronts of [`TransmitWave::arrival_time_s`]).
+fn front_curvature<T: Real>(wave: &TransmitWave<T>, p: Vec3<T>) -> T {
+    let distance = |dx: T, dz: T| (dx * dx + dz * dz).sqrt();
+    match *wave {
+        TransmitWave::PlaneWave { .. } => T::zero(),
+        TransmitWave::Diverging { source_m: [x, z] } => distance(p.x - x, p.z - z).recip(),
+        TransmitWave::Focused { focus_m: [x, z] } => -distance(x - p.x, z - p.z).recip(),
+    }
 }
 
 /// The direction a transmitted wave travels at the point `p` of an element's

@@ -34,6 +34,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             stack,
             specular_chain,
             rough_vertices,
+            spread,
             bounce,
             sampler,
             ..
@@ -61,6 +62,19 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             n_inc
         };
         let wi = -dir;
+        // In 2-D, the ray tube's reflection and refraction here (see
+        // `spreading`), with the surface's curvature as seen from `wi`.
+        let tube_after = spread.map(|tube| {
+            let kappa = st.geometry.in_plane_curvature(hit);
+            let kappa = if entering { kappa } else { -kappa };
+            move |wo: Vec3<T>, reflected: bool| {
+                if reflected {
+                    tube.reflected(wi, wo, kappa)
+                } else {
+                    tube.refracted(wi, wo, iface.c1, iface.c2, kappa)
+                }
+            }
+        });
 
         // The rough interface as seen from `wi`: BSDF and density terms shared by
         // every receiver connection and both continuations of this vertex.
@@ -90,7 +104,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     if transmitted {
                         cstack.cross(hit.object, entering);
                     }
-                    self.connect(hit.point, cstack, w, beta, f_cos, time, &link, sel_w, p_b);
+                    let tube = tube_after.map(|after| after(link.wo, !transmitted));
+                    self.connect(
+                        hit.point, cstack, w, beta, f_cos, time, &link, sel_w, p_b, tube,
+                    );
                 }
             }
         }
@@ -128,6 +145,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     .filter(|_| rough && (reflected || rough_vertices == 0))
                     .map(|inc| inc.eval_pdf(lobe.wo).1),
                 rough_vertices: rough_vertices + u32::from(rough),
+                spread: tube_after.map(|after| after(lobe.wo, reflected)),
                 bounce: bounce + 1,
                 sampler: sampler.branch(branch),
             });

@@ -92,12 +92,14 @@ mod horizon;
 mod interface;
 mod path;
 mod settings;
+mod spreading;
 mod volume;
 
 pub(crate) use horizon::Horizon;
 pub(crate) use path::trace_path_within;
 pub use path::{element_stack, trace_path, trace_path_casts, trace_path_from};
 pub use settings::TraceSettings;
+pub use spreading::POINT_SOURCE_REFERENCE_M;
 
 /// Closest distance (m) a ray may hit after leaving a surface: 0.1 µm, far below
 /// a wavelength (0.3 mm at 5 MHz) and above the f64 rounding of hit points.

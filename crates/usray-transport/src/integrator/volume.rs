@@ -5,6 +5,7 @@
 //! lumen's, along the part of a segment that crosses the lumen.
 
 use super::context::PathCtx;
+use super::spreading::Spread;
 use super::Deposit;
 use crate::effects::{attenuation_and_exponent, ScattererField};
 use crate::rng::{dim, PathSampler};
@@ -49,6 +50,8 @@ pub(super) struct Span<'a, T> {
     pub origin: Vec3<T>,
     pub dir: Vec3<T>,
     pub s: (f64, f64),
+    /// The 2-D ray tube at `origin` (`None` in 3-D).
+    pub spread: Option<Spread<T>>,
 }
 
 impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, F, C> {
@@ -72,6 +75,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             origin,
             dir,
             s: (s0, s1),
+            spread,
         } = *span;
         let field = &src.field;
         // √(ρ/ρ_g)·(1 mm/h)²: the density's (differentiable) share of each
@@ -97,12 +101,14 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             );
             let (a_q, beta_q) = (w * k_q, beta + b_q);
             let f = (src.strength * density_weight).scale(g / field.full_angle());
+            // A scatterer is a new point source lit by the tube at `q`.
+            let tube = spread.map(|sp| sp.advanced(along).scattered());
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
             for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {
                 if let Some(aim) = self.aim(q.to_f64(), e, t_q.value()) {
                     let link = self.link(q, &aim);
-                    self.connect(q, stack, a_q, beta_q, f, t_q, &link, sel_w, T::zero());
+                    self.connect(q, stack, a_q, beta_q, f, t_q, &link, sel_w, T::zero(), tube);
                 }
             }
         }
