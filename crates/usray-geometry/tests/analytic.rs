@@ -266,7 +266,10 @@ fn in_plane_curvature_is_signed_against_the_outward_normal() {
     for (k, w) in want.into_iter().enumerate() {
         let h = g.intersect(&Ray::new(origin, dir), EPS, 1.0).unwrap();
         let kappa = g.in_plane_curvature(&h);
-        assert!(close(kappa, w, 1e-9 * w.abs().max(1.0)), "hit {k}: {kappa} vs {w}");
+        assert!(
+            close(kappa, w, 1e-9 * w.abs().max(1.0)),
+            "hit {k}: {kappa} vs {w}"
+        );
         origin = h.point;
     }
 }

@@ -199,7 +199,15 @@ mod tests {
     /// A ray from `o` along `d` in speed `c1` meets the circle (from inside
     /// when `inside`), reflects or refracts into speed `c2`, and runs on to
     /// travel time `t_end`: its end point, the hit distance and directions.
-    fn trace(o: V, d: V, inside: bool, reflected: bool, c1: f64, c2: f64, t_end: f64) -> (V, f64, V) {
+    fn trace(
+        o: V,
+        d: V,
+        inside: bool,
+        reflected: bool,
+        c1: f64,
+        c2: f64,
+        t_end: f64,
+    ) -> (V, f64, V) {
         let s = circle_hit(o, d, inside);
         let p = o + d * s;
         let outward = (p - v(CENTRE)) * RADIUS.recip();
@@ -221,7 +229,11 @@ mod tests {
         let end = |x| trace(Vec3::new(x, 0.0, z0), d, inside, reflected, c1, c2, t_end).0;
         let width = (end(x + dx) - end(x - dx)).length() / (2.0 * dx);
         let (_, s, wo) = trace(Vec3::new(x, 0.0, z0), d, inside, reflected, c1, c2, t_end);
-        let kappa = if inside { -RADIUS.recip() } else { RADIUS.recip() };
+        let kappa = if inside {
+            -RADIUS.recip()
+        } else {
+            RADIUS.recip()
+        };
         let tube = Spread::<f64>::wavefront(0.0).advanced(s);
         let (tube, rest) = if reflected {
             (tube.reflected(-d, wo, kappa), (t_end - s / c1) * c1)
