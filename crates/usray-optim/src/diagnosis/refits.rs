@@ -38,17 +38,18 @@ struct Refit {
 /// The Adam step of a candidate's parameter in its refit, as a fraction of its
 /// range: [`Candidate::learning_rate`] (the effect's strength may lie anywhere
 /// in its range and refits are short: 5% of the range per step, less for a
-/// narrow basin), but for an effect whose null is the bottom of its range a
-/// quarter of the start's distance from it, between a quarter of that and
-/// that. Otherwise a start near the null (a faint speckle scored best at 0.035
-/// of a 0–2 strength) is one step from the bound, where the clip map's
-/// derivative is zero (paper eq. clip_grad) and the effect, switched off,
-/// could never come back.
+/// narrow basin), but for an effect whose null is the bottom of its range at
+/// most a quarter of the start's distance from it. Adam's first steps are each
+/// about one learning rate long whatever the gradient, so from a start near
+/// the null (a faint speckle scored best at 0.035 of a 0–2 strength; an
+/// attenuation started at 1% of its range) a longer step reaches the bound,
+/// where the clip map's derivative is zero (paper eq. clip_grad) and the
+/// effect, switched off, could never come back.
 fn refit_learning_rate(c: &Candidate, start: f64) -> f64 {
     let width = c.range.1 - c.range.0;
     match c.null {
         Some(null) if !c.two_sided && null <= c.range.0 && width > 0.0 => {
-            (0.25 * (start - c.range.0) / width).clamp(0.25 * c.learning_rate, c.learning_rate)
+            (0.25 * (start - c.range.0) / width).min(c.learning_rate)
         }
         _ => c.learning_rate,
     }
