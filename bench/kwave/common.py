@@ -2,6 +2,7 @@
 
 A copy of ../shared/tools/kwave/common.py with two ring geometries (GEOMS), per-case pulse
 lengths and every catalogue effect of `usray diagnose` as a case."""
+import os
 import numpy as np
 
 # ---- grid -------------------------------------------------------------------------
@@ -10,8 +11,12 @@ NZ_IN, NX_IN = 360, 320       # interior grid (axis0 = z depth, axis1 = x latera
 PML = 20                      # PML points per side, outside the interior (pml_inside=False)
 PML_ALPHA = 2.0
 J0 = 8                        # interior row holding the array (z = 0)
-DT = 12.5e-9                  # time step (fs_sim = 80 MHz; CFL = 1600*DT/DX = 0.267)
-NT = 4000                     # 50 us of simulated time
+# KWAVE_DT_DIVISOR=4 runs at a quarter of the time step (same 50 us, same output grid): k-Wave's
+# time stepping with its k-space operator set for 1600 m/s delays echoes in 1480 m/s water by about
+# 0.08% of their travel time at the default step (docs/diagnosis.md, Known limits).
+DT_DIVISOR = int(os.environ.get("KWAVE_DT_DIVISOR", "1"))
+DT = 12.5e-9 / DT_DIVISOR     # time step (fs_sim = 80 MHz; CFL = 1600*DT/DX = 0.267)
+NT = 4000 * DT_DIVISOR        # 50 us of simulated time
 C_REF = 1600.0                # k-space / PML reference speed, forced identical in every run
 z = (np.arange(NZ_IN) - J0) * DX                  # row centres
 x = (np.arange(NX_IN) - NX_IN / 2 + 0.5) * DX      # column centres (x=0 between two columns)
@@ -26,7 +31,7 @@ NCYC_LONG = 5                  # the pulse_length cases' burst (sigma 5/3 as lon
 T_LEAD = 2.5e-6                # sim time at which the (x=0) wavefront centre leaves the array = our t=0
 N_LEAD = int(round(T_LEAD / DT))   # 200 (room for the 5-cycle burst's leading 4 sigma + max delay)
 C_TX = 1480.0                  # speed the "scanner" uses for its transmit delays (all cases)
-SRC_LEN = 400                  # source samples (5 us) -- covers lead + max delay + 4 sigma
+SRC_LEN = 400 * DT_DIVISOR     # source samples (5 us) -- covers lead + max delay + 4 sigma
 
 def element_weights():
     """(NEL, NX_IN) area weights of each element over the cells of the array row."""

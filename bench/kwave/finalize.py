@@ -20,7 +20,8 @@ def sidecar():
                   "carrier": "-sin(2*pi*f*t)*exp(-t^2/(2*sigma^2)), t from the envelope centre",
                   "time_reference": "envelope centre"},
         "amplitude_unit": "Pa per 1 Pa source pressure",
-        "simulation": "k-wave-python 0.6.2, 2-D (x, z); scattered field = total minus a run of the same background without the target",
+        "simulation": "k-wave-python 0.6.2, 2-D (x, z); scattered field = total minus a run of the same background without the target"
+                      + (f"; time step {DT * 1e9:g} ns" if DT_DIVISOR != 1 else ""),
     }
 
 if __name__ == "__main__":
