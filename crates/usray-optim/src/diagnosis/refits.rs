@@ -38,27 +38,40 @@ struct Refit {
 /// The Adam step of a candidate's parameter in its refit, as a fraction of its
 /// range: [`Candidate::learning_rate`] (the effect's strength may lie anywhere
 /// in its range and refits are short: 5% of the range per step, less for a
-/// narrow basin), but for an effect whose null is the bottom of its range at
-/// most a quarter of the start's distance from it. Adam's first steps are each
-/// about one learning rate long whatever the gradient, so from a start near
-/// the null (a faint speckle scored best at 0.035 of a 0–2 strength; an
-/// attenuation started at 1% of its range) a longer step reaches the bound,
-/// where the clip map's derivative is zero (paper eq. clip_grad) and the
-/// effect, switched off, could never come back.
-fn refit_learning_rate(c: &Candidate, start: f64) -> f64 {
+/// narrow basin), but for an effect whose null is the bottom of its range a
+/// quarter of the start's distance from it. Adam's first steps are each about
+/// one learning rate long whatever the gradient, so from a start near the
+/// null (a faint speckle scored best at 0.035 of a 0–2 strength) a longer
+/// step *down* reaches the bound, where the clip map's derivative is zero
+/// (paper eq. clip_grad) and the effect, switched off, could never come back.
+/// When the screen says the loss falls towards the null (`toward_null`: its
+/// best point lies below the onset, or the onset's gradient is positive) that
+/// quarter is a ceiling; otherwise the refit climbs away from the bound and
+/// the step is kept between a quarter of the learning rate and the learning
+/// rate, so that a weak start (a depth gain at 1% of its range) can grow
+/// within the refit's iterations.
+fn refit_learning_rate(c: &Candidate, start: f64, toward_null: bool) -> f64 {
     let width = c.range.1 - c.range.0;
     match c.null {
         Some(null) if !c.two_sided && null <= c.range.0 && width > 0.0 => {
-            (0.25 * (start - c.range.0) / width).min(c.learning_rate)
+            let quarter = 0.25 * (start - c.range.0) / width;
+            if toward_null {
+                quarter.min(c.learning_rate)
+            } else {
+                quarter.clamp(0.25 * c.learning_rate, c.learning_rate)
+            }
         }
         _ => c.learning_rate,
     }
 }
 
-/// Refits candidate `c` with the base `specs` from `start` (step 4).
+/// Refits candidate `c` with the base `specs` from `start` (step 4);
+/// `toward_null` as [`refit_learning_rate`]'s.
+#[allow(clippy::too_many_arguments)]
 fn refit_candidate(
     c: &Candidate,
     start: f64,
+    toward_null: bool,
     stage: &Stage,
     specs: &[ParamSpec],
     measured: &[f64],
@@ -86,7 +99,7 @@ fn refit_candidate(
         &x0,
         &FitOptions {
             iters: opts.refit_iters,
-            lr_overrides: vec![(c.key.clone(), refit_learning_rate(c, start))],
+            lr_overrides: vec![(c.key.clone(), refit_learning_rate(c, start, toward_null))],
             ..opts.fit.clone()
         },
         &opts.journal,
@@ -254,7 +267,18 @@ pub(crate) fn refit_leading(
     for k in leading {
         let c = &candidates[k];
         progress(&format!("refitting with {} ({})", c.effect, c.key));
-        let r = match refit_candidate(c, starts[k], stage, specs, measured, held_data, opts) {
+        let (onset, gradient) = (effects[k].onset, effects[k].gradient);
+        let toward_null = starts[k] < onset || (starts[k] == onset && gradient > 0.0);
+        let r = match refit_candidate(
+            c,
+            starts[k],
+            toward_null,
+            stage,
+            specs,
+            measured,
+            held_data,
+            opts,
+        ) {
             Ok(r) => r,
             Err(e) => {
                 effects[k].failed = Some(format!("refit: {e}"));
