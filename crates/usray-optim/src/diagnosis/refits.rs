@@ -322,3 +322,40 @@ pub(crate) fn refit_leading(
     }
     (refits, spread_s)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use usray_transport::{Field, ParamKey};
+
+    /// A speckle strength on `[0, 2]` whose null is the bottom of its range.
+    fn speckle() -> Candidate {
+        Candidate {
+            effect: "volume_scattering".into(),
+            key: ParamKey::material("m", Field::ScattererStrength),
+            onsets: vec![0.0],
+            range: (0.0, 2.0),
+            two_sided: false,
+            null: Some(0.0),
+            fixed: vec![],
+            learning_rate: 0.05,
+        }
+    }
+
+    #[test]
+    fn a_refit_falling_towards_its_null_cannot_step_onto_it() {
+        // Adam's first step is about one learning rate (× the range) long:
+        // towards the null it stays a quarter of the start's distance.
+        let c = speckle();
+        let start = 0.019;
+        let step = refit_learning_rate(&c, start, true) * (c.range.1 - c.range.0);
+        assert!((step - 0.25 * start).abs() < 1e-12, "{step}");
+        // Climbing away from it, the step keeps its floor (a quarter of the
+        // learning rate), so a weak start can grow within the refit.
+        let up = refit_learning_rate(&c, start, false);
+        assert_eq!(up, 0.25 * c.learning_rate);
+        // Far from the null both are the candidate's own rate.
+        assert_eq!(refit_learning_rate(&c, 1.5, true), c.learning_rate);
+        assert_eq!(refit_learning_rate(&c, 1.5, false), c.learning_rate);
+    }
+}

@@ -317,5 +317,10 @@ mod tests {
         // A point source's factor √(r / 1 mm): 1 at 1 mm.
         let p = Spread::<f64>::point_source().advanced(POINT_SOURCE_REFERENCE_M);
         assert!((p.pressure_factor() - 1.0).abs() < 1e-12);
+        // A scatterer lit by a tube carries that tube's factor times its own
+        // point source's: lit at 4 mm from a point source (factor 2), seen
+        // from 9 mm (factor 3).
+        let lit = Spread::<f64>::point_source().advanced(4e-3).scattered();
+        assert!((lit.advanced(9e-3).pressure_factor() - 6.0).abs() < 1e-12);
     }
 }
