@@ -21,7 +21,7 @@ def sidecar():
                   "time_reference": "envelope centre"},
         "amplitude_unit": "Pa per 1 Pa source pressure",
         "simulation": "k-wave-python 0.6.2, 2-D (x, z); scattered field = total minus a run of the same background without the target"
-                      + (f"; time step {DT * 1e9:g} ns" if DT_DIVISOR != 1 else ""),
+                      + f"; k-space reference speed {C_REF:g} m/s; time step {DT * 1e9:g} ns",
     }
 
 if __name__ == "__main__":
