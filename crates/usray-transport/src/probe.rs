@@ -43,6 +43,19 @@ pub fn cos_to_normal<T: Real>(kind: ArrayKind, normal: &[T; 2], dir: Vec3<T>) ->
     }
 }
 
+/// `t·ω`: the component of direction `ω` along an element's width, the
+/// tangent `t = (n_z, 0, −n_x)` of its normal `n = (n_x, n_z)` (for a flat
+/// array `ω_x`). For a unit `ω` in the `xz` plane it is `±sin α`, `α` the angle
+/// to the normal.
+#[inline]
+pub fn along_width<T: Real>(kind: ArrayKind, normal: &[T; 2], dir: Vec3<T>) -> T {
+    if kind.is_flat() {
+        dir.x
+    } else {
+        normal[1] * dir.x - normal[0] * dir.z
+    }
+}
+
 /// The point of element `el`'s face at the offsets `(u_t, u_y) ∈ [−½, ½]²`
 /// of its width (along the tangent) and elevation, m.
 #[inline]
@@ -104,7 +117,7 @@ pub fn receive_directivity<T: Real>(cos_alpha: T, main_lobe: T, cutoff: T) -> T 
 }
 
 /// [`receive_directivity`] of fixed lobe angles, with their cosines computed
-/// once (the tracer evaluates it for every receiver connection).
+/// once.
 #[derive(Clone, Copy, Debug)]
 pub struct ReceiveLobe<T> {
     main_lobe: T,
@@ -151,6 +164,89 @@ impl<T: Real> ReceiveLobe<T> {
             T::one()
         } else {
             (cutoff - a) / (cutoff - main_lobe)
+        }
+    }
+}
+
+/// An element's own receive directivity (`probe.receive_directivity =
+/// "element"`, [`crate::scene::ReceiveDirectivity`]): a uniformly sensitive
+/// strip of width `w` averages a plane wave arriving with component `s = t·ω`
+/// along its width to `sinc(π w s / λ)` (Szabo, *Diagnostic Ultrasound
+/// Imaging*, 2nd ed., eq. 6.16), `λ = c/f_c`. Signed: past the first zero
+/// (`w > λ`) a side lobe receives with the opposite sign.
+///
+/// ```
+/// use usray_transport::probe::ElementDirectivity;
+/// // A 0.27 mm element at 2.5 MHz in water (λ = 0.592 mm), 30° off its normal.
+/// let d = ElementDirectivity::new(0.27e-3 * 2.5e6 / 1480.0);
+/// let s = 30f64.to_radians().sin();
+/// let x = std::f64::consts::PI * 0.27e-3 / (1480.0 / 2.5e6) * s;
+/// assert!((d.eval(30f64.to_radians().cos(), s) - x.sin() / x).abs() < 1e-12);
+/// assert_eq!(d.eval(1.0, 0.0), 1.0);
+/// assert_eq!(d.eval(-0.5, 0.3), 0.0); // from behind the element
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct ElementDirectivity<T> {
+    /// `π w / λ = π w f_c / c`, dimensionless.
+    pi_width_over_wavelength: T,
+}
+
+impl<T: Real> ElementDirectivity<T> {
+    /// The directivity of an element `w/λ` = `width_over_wavelength` wide.
+    #[inline]
+    pub fn new(width_over_wavelength: T) -> Self {
+        Self {
+            pi_width_over_wavelength: width_over_wavelength.scale(core::f64::consts::PI),
+        }
+    }
+
+    /// `sinc(π w s / λ)` for an arrival at `cos_alpha` to the normal with
+    /// component `along_width` along the width; 0 from behind (`cos_alpha ≤ 0`).
+    #[inline]
+    pub fn eval(&self, cos_alpha: T, along_width: T) -> T {
+        if cos_alpha.value() <= 0.0 {
+            return T::zero();
+        }
+        let x = self.pi_width_over_wavelength * along_width;
+        // sin x / x, by its Taylor series where the quotient loses digits.
+        if x.value().abs() < 1e-4 {
+            T::one() - x * x * T::from_f64(1.0 / 6.0)
+        } else {
+            x.sin() / x
+        }
+    }
+}
+
+/// The receive directivity the tracer applies at every element
+/// (`probe.receive_directivity`): the element's own or the paper's lobe.
+#[derive(Clone, Copy, Debug)]
+pub enum Receiver<T> {
+    /// [`ElementDirectivity`].
+    Element(ElementDirectivity<T>),
+    /// [`ReceiveLobe`] (paper eq. `cutoff`).
+    Lobe(ReceiveLobe<T>),
+}
+
+impl<T: Real> Receiver<T> {
+    /// False when the directivity at `cos_alpha` is certainly 0; a cheap test
+    /// before [`Receiver::eval`].
+    #[inline]
+    pub fn may_receive(&self, cos_alpha: f64) -> bool {
+        match self {
+            Self::Element(_) => cos_alpha > 0.0,
+            Self::Lobe(lobe) => lobe.may_receive(cos_alpha),
+        }
+    }
+
+    /// The directivity of an element (`kind`, normal `normal`) for a wave
+    /// arriving from direction `towards_source` (unit, pointing from the
+    /// element towards where the wave comes from).
+    #[inline]
+    pub fn eval(&self, kind: ArrayKind, normal: &[T; 2], towards_source: Vec3<T>) -> T {
+        let cos_alpha = cos_to_normal(kind, normal, towards_source);
+        match self {
+            Self::Element(d) => d.eval(cos_alpha, along_width(kind, normal, towards_source)),
+            Self::Lobe(lobe) => lobe.eval(cos_alpha),
         }
     }
 }
@@ -255,6 +351,37 @@ mod tests {
         assert_eq!(receive_directivity(70f64.to_radians().cos(), m, c), 0.0);
         let d = cosine_hemisphere(0.3, 0.7);
         assert!(((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - 1.0).abs() < 1e-12);
+    }
+
+    /// The element's directivity through [`Receiver`]: its first zero at
+    /// `sin α = λ/w`, even in `α`, the same along a convex element's tangent
+    /// as along a flat one's `x`, and smooth through broadside (the series
+    /// branch meets the quotient).
+    #[test]
+    fn element_directivity_zeros_symmetry_and_frames() {
+        let w_over_lambda = 1.6;
+        let rx = Receiver::Element(ElementDirectivity::new(w_over_lambda));
+        let flat = [0.0, 1.0];
+        let at = |s: f64| Vec3::new(s, 0.0, (1.0 - s * s).sqrt());
+        let first_zero = 1.0 / w_over_lambda;
+        assert!(rx.eval(ArrayKind::Linear, &flat, at(first_zero)).abs() < 1e-12);
+        assert!(rx.eval(ArrayKind::Linear, &flat, at(first_zero + 0.05)) < 0.0);
+        let (p, m) = (at(0.3), at(-0.3));
+        assert_eq!(
+            rx.eval(ArrayKind::Linear, &flat, p),
+            rx.eval(ArrayKind::Linear, &flat, m)
+        );
+        // A convex element tilted by 0.2 rad: the same angle off its normal.
+        let (sn, cn) = 0.2f64.sin_cos();
+        let normal = [sn, cn];
+        let (sa, ca) = 0.3f64.sin_cos();
+        let rotate = |x: f64, z: f64| Vec3::new(cn * x + sn * z, 0.0, cn * z - sn * x);
+        let tilted = rotate(sa, ca);
+        let flat_value = rx.eval(ArrayKind::Linear, &flat, Vec3::new(sa, 0.0, ca));
+        assert!((rx.eval(ArrayKind::Convex, &normal, tilted) - flat_value).abs() < 1e-12);
+        let d = ElementDirectivity::new(w_over_lambda);
+        let (below, above) = (d.eval(1.0, 0.99e-4 / 5.03), d.eval(1.0, 1.01e-4 / 5.03));
+        assert!((below - above).abs() < 1e-9);
     }
 
     /// A convex array: a ray aimed at an element centre along minus its

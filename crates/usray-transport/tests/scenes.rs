@@ -47,24 +47,37 @@ fn shipped_scenes_load_and_render() {
     }
 }
 
-/// A scene that leaves out the receive directivity gets the shipped scenes'
-/// 5° main lobe and 60° cutoff: `scenes/cylinder.toml` without those two lines
-/// is the same scene.
+/// A scene that leaves out the receive directivity gets the element's own
+/// (`sinc(π w sin α / λ)`); one that gives the paper's lobe angles keeps the
+/// lobe, with 5°/60° for an angle it leaves out; angles given beside
+/// `receive_directivity = "element"` are refused, naming the key.
 #[test]
-fn receive_directivity_defaults_to_the_shipped_values() {
+fn receive_directivity_defaults_to_the_element() {
+    use usray_transport::scene::ReceiveDirectivity;
     let path = scene_path("cylinder.toml");
     let text = std::fs::read_to_string(&path).unwrap();
-    let trimmed: String = text
-        .lines()
-        .filter(|l| !l.starts_with("main_lobe_deg") && !l.starts_with("cutoff_deg"))
-        .map(|l| format!("{l}\n"))
-        .collect();
-    assert_ne!(trimmed, text, "the lines were not there to remove");
+    let without = |keys: &[&str]| -> String {
+        text.lines()
+            .filter(|l| !keys.iter().any(|k| l.starts_with(k)))
+            .map(|l| format!("{l}\n"))
+            .collect()
+    };
+    let load = |t: &str| Scene::from_toml_str(t, "cylinder.toml", scene_path(""));
     let full = Scene::load(&path).unwrap();
-    let bare = Scene::from_toml_str(&trimmed, "cylinder.toml", scene_path("")).unwrap();
-    assert_eq!(bare.probe.main_lobe_deg, 5.0);
-    assert_eq!(bare.probe.cutoff_deg, 60.0);
-    assert_eq!(bare.probe, full.probe);
+    assert_eq!(full.probe.receive_model(), ReceiveDirectivity::Lobe);
+    let bare = load(&without(&["main_lobe_deg", "cutoff_deg"])).unwrap();
+    assert_ne!(bare.probe, full.probe, "the lines were not there to remove");
+    assert_eq!(bare.probe.receive_model(), ReceiveDirectivity::Element);
+    let cutoff_only = load(&without(&["main_lobe_deg"])).unwrap();
+    assert_eq!(cutoff_only.probe.receive_model(), ReceiveDirectivity::Lobe);
+    assert_eq!(cutoff_only.probe.lobe_deg(), (5.0, full.probe.lobe_deg().1));
+    let both = text.replace("[probe]\n", "[probe]\nreceive_directivity = \"element\"\n");
+    assert_ne!(both, text);
+    let e = load(&both).unwrap_err().to_string();
+    assert!(
+        e.contains("probe.main_lobe_deg") && e.contains("lobe"),
+        "{e}"
+    );
 }
 
 /// A scene that leaves out `[imaging]` images with the beamformer's defaults

@@ -54,9 +54,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     }
                     _ => T::one(),
                 };
-                let fd = self
-                    .lobe
-                    .eval(-cos_to_normal(st.array.kind, &element.normal, dir));
+                let fd = self.receiver.eval(st.array.kind, &element.normal, -dir);
                 let tau = time + t_array / medium.sound_speed;
                 let (k, b) = attenuation_and_exponent(
                     medium.attenuation_db_cm_mhz,

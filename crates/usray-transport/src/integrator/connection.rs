@@ -76,7 +76,7 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         let (wo, r) = line(centre3(el).to_f64(), p);
         let n = [el.normal[0].value(), el.normal[1].value()];
         let facing = cos_to_normal(st.array.kind, &n, wo);
-        if r <= T_MIN || !self.lobe.may_receive(-facing) || self.late(time, r) {
+        if r <= T_MIN || !self.receiver.may_receive(-facing) || self.late(time, r) {
             return None;
         }
         Some(Aim { e, wo })
@@ -120,8 +120,9 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             return;
         }
         let Link { e, wo, r } = *link;
-        let cos_e = -cos_to_normal(st.array.kind, &st.elements[e].normal, wo);
-        let fd = self.lobe.eval(cos_e);
+        let normal = &st.elements[e].normal;
+        let cos_e = -cos_to_normal(st.array.kind, normal, wo);
+        let fd = self.receiver.eval(st.array.kind, normal, -wo);
         if fd.value() == 0.0 {
             return;
         }

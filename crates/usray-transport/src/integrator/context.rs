@@ -5,7 +5,7 @@ use super::horizon::Horizon;
 use super::settings::TraceSettings;
 use super::{Deposit, TraceCounters, T_MIN};
 use crate::effects::depth_gain;
-use crate::probe::ReceiveLobe;
+use crate::probe::Receiver;
 use crate::scene::SceneT;
 use usray_ad::Real;
 use usray_geometry::{Hit, Ray};
@@ -18,7 +18,7 @@ pub(super) struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f
     /// The largest down-shift placed, in `σ_f` ([`SceneT::max_shift`]).
     pub(super) max_shift: f64,
     /// The elements' receive directivity.
-    pub(super) lobe: ReceiveLobe<T>,
+    pub(super) receiver: Receiver<T>,
     /// Deposits from this time on are dropped by the caller (`None`: keep all).
     pub(super) horizon: Option<Horizon>,
     pub(super) counters: TraceCounters,

@@ -6,7 +6,7 @@ use super::emission::emit;
 use super::horizon::Horizon;
 use super::settings::TraceSettings;
 use super::{Deposit, TraceCounters};
-use crate::probe::{centre3, ReceiveLobe};
+use crate::probe::centre3;
 use crate::scene::SceneT;
 use usray_ad::Real;
 use usray_geometry::{MediumStack, Ray};
@@ -112,7 +112,7 @@ fn trace<T: Real>(
         settings,
         norm: T::from_f64(1.0 / settings.rays_per_element as f64),
         max_shift: st.max_shift,
-        lobe: ReceiveLobe::new(st.main_lobe, st.cutoff),
+        receiver: st.receiver,
         horizon,
         counters: TraceCounters::default(),
         out,

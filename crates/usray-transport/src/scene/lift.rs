@@ -1,7 +1,11 @@
 //! The numeric state of a scene in any `T: Real`: what the tracer reads.
 
 use super::key::{Field, ParamKey};
-use super::{Emission, Scene, SceneError, ShapeKind};
+use super::{
+    Emission, ReceiveDirectivity, Scene, SceneError, ShapeKind, DEFAULT_CUTOFF_DEG,
+    DEFAULT_MAIN_LOBE_DEG,
+};
+use crate::probe::{ElementDirectivity, ReceiveLobe, Receiver};
 use std::sync::Arc;
 use usray_ad::Real;
 use usray_geometry::shapes::cylinder::Cylinder;
@@ -131,10 +135,8 @@ pub struct SceneT<T> {
     /// The largest down-shift the tracer places, in `σ_f`, from the values of
     /// `center_frequency` and `cycles` ([`crate::downshift::max_shift`]).
     pub max_shift: f64,
-    /// Receive main lobe, radians.
-    pub main_lobe: T,
-    /// Receive cutoff, radians.
-    pub cutoff: T,
+    /// Every element's receive directivity (`probe.receive_directivity`).
+    pub receiver: Receiver<T>,
     /// The transmitted waves in acquisition order (`usray_signal::transmit`:
     /// each element's firing time).
     pub transmits: Vec<TransmitWave<T>>,
@@ -330,6 +332,26 @@ impl Scene {
         let probe = |field| get(ParamKey::probe(field));
         let (center_frequency, cycles) = (probe(Field::CenterFrequency), probe(Field::Cycles));
         let array = self.array_geometry_t(get);
+        let receiver = match self.probe.receive_model() {
+            ReceiveDirectivity::Element => Receiver::Element(ElementDirectivity::new(
+                array.element_width_m * center_frequency / get(ParamKey::medium(Field::SoundSpeed)),
+            )),
+            ReceiveDirectivity::Lobe => {
+                // An angle the scene leaves out takes the lobe's default.
+                let angle = |field, given: Option<f64>, default: f64| match given {
+                    Some(_) => probe(field) * deg,
+                    None => T::from_f64(default) * deg,
+                };
+                Receiver::Lobe(ReceiveLobe::new(
+                    angle(
+                        Field::MainLobe,
+                        self.probe.main_lobe_deg,
+                        DEFAULT_MAIN_LOBE_DEG,
+                    ),
+                    angle(Field::Cutoff, self.probe.cutoff_deg, DEFAULT_CUTOFF_DEG),
+                ))
+            }
+        };
         Ok(SceneT {
             medium: material(&ParamKey::medium, false),
             objects,
@@ -343,8 +365,7 @@ impl Scene {
             cycles,
             pulse_bandwidth: usray_signal::pulse::pulse_bandwidth_hz(center_frequency, cycles),
             max_shift: crate::downshift::max_shift(center_frequency.value(), cycles.value()),
-            main_lobe: probe(Field::MainLobe) * deg,
-            cutoff: probe(Field::Cutoff) * deg,
+            receiver,
             transmits: self.transmit_waves_t(get),
             fs: self.acquisition.sampling_frequency_hz,
             depth_gain_db_per_cm: get(ParamKey::acquisition(Field::DepthGain)),

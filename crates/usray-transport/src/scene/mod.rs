@@ -18,8 +18,9 @@ mod slots;
 pub use key::{Field, ImagingRole, Owner, ParamGroup, ParamKey};
 pub use lift::{LumenT, MaterialT, ObjectT, SceneT};
 pub use schema::{
-    limits, Acquisition, Dimensions, Emission, Imaging, Material, Medium, Object, Probe, Sampler,
-    ShapeKind, TransmitSpec,
+    limits, Acquisition, Dimensions, Emission, Imaging, Material, Medium, Object, Probe,
+    ReceiveDirectivity, Sampler, ShapeKind, TransmitSpec, DEFAULT_CUTOFF_DEG,
+    DEFAULT_MAIN_LOBE_DEG,
 };
 
 use std::collections::BTreeMap;

@@ -39,25 +39,81 @@ pub struct Probe {
     pub center_frequency_hz: f64,
     /// Pulse length in cycles (envelope FWHM = cycles/f_c; `usray_signal::pulse`).
     pub cycles: f64,
-    /// Receive directivity main lobe, degrees (paper eq. `cutoff`, `α_m`);
-    /// default 5°, the shipped scenes' value.
-    #[serde(default = "default_main_lobe_deg")]
-    pub main_lobe_deg: f64,
-    /// Receive directivity cutoff, degrees (paper eq. `cutoff`, `α_c`); default
-    /// 60°, the shipped scenes' value.
-    #[serde(default = "default_cutoff_deg")]
-    pub cutoff_deg: f64,
+    /// Receive directivity model ([`ReceiveDirectivity`]): without it, the
+    /// paper's lobe when `main_lobe_deg` or `cutoff_deg` is given, else the
+    /// element's own ([`Probe::receive_model`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub receive_directivity: Option<ReceiveDirectivity>,
+    /// Main lobe of the paper's receive lobe, degrees (paper eq. `cutoff`,
+    /// `α_m`); 5° when the lobe is asked for without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub main_lobe_deg: Option<f64>,
+    /// Cutoff of the paper's receive lobe, degrees (paper eq. `cutoff`, `α_c`);
+    /// 60° when the lobe is asked for without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cutoff_deg: Option<f64>,
     /// Element extent along `y` (elevation), metres; default 4 mm.
     #[serde(default = "default_elevation")]
     pub elevation_m: f64,
 }
 
-fn default_main_lobe_deg() -> f64 {
-    5.0
+/// The paper's receive lobe's main lobe when a scene asks for the lobe without
+/// giving it, degrees.
+pub const DEFAULT_MAIN_LOBE_DEG: f64 = 5.0;
+
+/// The paper's receive lobe's cutoff when a scene asks for the lobe without
+/// giving it, degrees.
+pub const DEFAULT_CUTOFF_DEG: f64 = 60.0;
+
+/// How an element weighs an echo by its direction of arrival
+/// (`probe.receive_directivity`), on top of the obliquity `cos α` of its
+/// projected width that every receiver measure carries.
+///
+/// The default is the element's own directivity: a uniformly sensitive strip
+/// of width `w` receiving a plane wave from angle `α` averages it to
+/// `sinc(π w sin α / λ)` (`sinc x = sin x / x`, `λ = c/f_c` with the medium's
+/// speed and the probe's centre frequency; Szabo, *Diagnostic Ultrasound
+/// Imaging*, 2nd ed., §6.3 eq. 6.16), which with the obliquity is the
+/// soft-baffle element of Selfridge, Kino & Khuri-Yakub (Appl. Phys. Lett.
+/// 37, 1980) that Field II and PyMUST use. The paper's trapezoid (eq.
+/// `cutoff`) is far narrower than a narrow element's: at 2.5 MHz a 0.27 mm
+/// element receives at 30° within 0.7 dB of its broadside response, the
+/// 5°/60° lobe 5 dB below it, and the sides of a ring came out 4–7 dB darker
+/// than k-Wave's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReceiveDirectivity {
+    /// `sinc(π w sin α / λ)` along the element's width (the default); in 3-D
+    /// `sin α` is the arriving direction's component along the width.
+    #[default]
+    Element,
+    /// The paper's lobe (eq. `cutoff`): 1 inside `main_lobe_deg`, falling
+    /// linearly to 0 at `cutoff_deg`.
+    Lobe,
 }
 
-fn default_cutoff_deg() -> f64 {
-    60.0
+impl Probe {
+    /// The receive directivity this probe uses: `receive_directivity` when
+    /// given, else the paper's lobe when either of its angles is, else the
+    /// element's own.
+    pub fn receive_model(&self) -> ReceiveDirectivity {
+        match self.receive_directivity {
+            Some(d) => d,
+            None if self.main_lobe_deg.is_some() || self.cutoff_deg.is_some() => {
+                ReceiveDirectivity::Lobe
+            }
+            None => ReceiveDirectivity::Element,
+        }
+    }
+
+    /// The paper's lobe's `(main lobe, cutoff)`, degrees, with the defaults
+    /// for the angles not given.
+    pub fn lobe_deg(&self) -> (f64, f64) {
+        (
+            self.main_lobe_deg.unwrap_or(DEFAULT_MAIN_LOBE_DEG),
+            self.cutoff_deg.unwrap_or(DEFAULT_CUTOFF_DEG),
+        )
+    }
 }
 
 fn default_elevation() -> f64 {
@@ -491,15 +547,33 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
         (limits::MIN_CYCLES, limits::MAX_CYCLES),
     )?;
     pos("probe.elevation_m", p.elevation_m)?;
-    nonneg("probe.main_lobe_deg", p.main_lobe_deg)?;
-    if !(p.cutoff_deg > p.main_lobe_deg && p.cutoff_deg <= 90.0) {
-        return err(
-            "probe.cutoff_deg",
-            &format!(
-                "expected main_lobe_deg < cutoff_deg ≤ 90, found {} (main lobe {})",
-                p.cutoff_deg, p.main_lobe_deg
-            ),
-        );
+    match p.receive_model() {
+        ReceiveDirectivity::Lobe => {
+            let (main_lobe, cutoff) = p.lobe_deg();
+            nonneg("probe.main_lobe_deg", main_lobe)?;
+            if !(cutoff > main_lobe && cutoff <= 90.0) {
+                return err(
+                    "probe.cutoff_deg",
+                    &format!(
+                        "expected main_lobe_deg < cutoff_deg ≤ 90, found {cutoff} (main lobe {main_lobe})"
+                    ),
+                );
+            }
+        }
+        ReceiveDirectivity::Element => {
+            for (key, given) in [
+                ("probe.main_lobe_deg", p.main_lobe_deg),
+                ("probe.cutoff_deg", p.cutoff_deg),
+            ] {
+                if given.is_some() {
+                    return err(
+                        key,
+                        "applies only to `receive_directivity = \"lobe\"` (the paper's lobe), \
+                         not to the element's own directivity: drop it, or ask for the lobe",
+                    );
+                }
+            }
+        }
     }
     // 4. Acquisition.
     let a = &s.acquisition;
