@@ -132,12 +132,13 @@ impl EffectResult {
     /// Whether the refit left the effect parameter within 1% of its range's
     /// width from a bound: the data may want a stronger effect than the range
     /// allows (or a wall thinner than the thinnest tried), so the value found is
-    /// a limit, not an estimate. `false` when not refitted. A bound that is the
-    /// effect's null (a speckle strength's or an attenuation's 0) does not
-    /// count: there the effect is absent rather than pressed against what it
-    /// can physically be, and a small effect refits close to it (a speckle
-    /// strength of 0.0195 in a range of 0–2, 80 standard errors over the null
-    /// refit, is an estimate).
+    /// a limit, not an estimate. `false` when not refitted. Near a bound that
+    /// is the effect's null (a speckle strength's or an attenuation's 0) a
+    /// small effect refits close to it without being pressed against anything:
+    /// there the value counts as an estimate when it lies beyond its limit of
+    /// detection from the null ([`EffectResult::detection_limit`]; a speckle
+    /// strength of 0.0195 in a range of 0–2, limit 0.007, 80 standard errors
+    /// over the null refit), and as at the bound otherwise.
     ///
     /// ```
     /// use std::collections::BTreeMap;
@@ -156,18 +157,22 @@ impl EffectResult {
     /// assert!(e.at_range_bound());
     /// e.params.insert(e.path.clone(), 2.5);
     /// assert!(!e.at_range_bound());
-    /// e.params.insert(e.path.clone(), 0.05); // near the null's own bound
+    /// e.params.insert(e.path.clone(), 0.05); // near the null's own bound…
+    /// assert!(e.at_range_bound()); // …without a limit of detection
+    /// e.detection_limit = Some(0.02); // beyond it: an estimate
     /// assert!(!e.at_range_bound());
-    /// e.null = Some(3.0); // a bound that is not the null
+    /// e.detection_limit = Some(0.08); // within it: at the bound
     /// assert!(e.at_range_bound());
     /// ```
     pub fn at_range_bound(&self) -> bool {
         let [lo, hi] = self.range;
         let margin = 0.01 * (hi - lo);
-        let pressed = |bound: f64, near: bool| near && self.null != Some(bound);
-        self.params
-            .get(&self.path)
-            .is_some_and(|v| pressed(lo, *v <= lo + margin) || pressed(hi, *v >= hi - margin))
+        let Some(&v) = self.params.get(&self.path) else {
+            return false;
+        };
+        let detected = |null: f64| self.detection_limit.is_some_and(|l| (v - null).abs() > l);
+        let pressed = |bound: f64| self.null != Some(bound) || !detected(bound);
+        (v <= lo + margin && pressed(lo)) || (v >= hi - margin && pressed(hi))
     }
 
     /// How far the refit moved the effect parameter from its null, in its
