@@ -3,9 +3,8 @@
 Theory: the burst of common.pulse (3 cycles at 2.5 MHz) reflected at normal incidence off a
 water | wall | water layer, R(f) = r (1 - e^{2ikd}) / (1 - r^2 e^{2ikd}), r = (Z_t - Z_w)/(Z_t + Z_w),
 k = 2 pi f / c_t (the plane-layer reflection coefficient, Brekhovskikh, Waves in Layered
-Media); for a graded layer (the
-wall's area fraction blurred by a Gaussian), the impedance-translation formula over sublayers
-of 7.5 um. Measured: the spectral centroid of the near and far wall echoes of ring g1 on
+Media); for a graded layer (the wall's area fraction blurred by a Gaussian), the
+impedance-translation formula over sublayers of 7.5 um. Measured: the spectral centroid of the near and far wall echoes of ring g1 on
 elements 16, 32 and 48 at 0 deg in the given channel files (Hann window, 2 us).
 Usage: python3 layer_echo.py [data/g1_none.json ...]  (docs/diagnosis.md, Known limits)"""
 import json, sys
