@@ -238,14 +238,16 @@ impl<T: Real> Receiver<T> {
         }
     }
 
-    /// The directivity of an element (`kind`, normal `normal`) for a wave
-    /// arriving from direction `towards_source` (unit, pointing from the
-    /// element towards where the wave comes from).
+    /// The directivity for a wave arriving at `cos_alpha` to the element's
+    /// normal (`cos_alpha = −n·d` for a propagation direction `d`), with
+    /// `along_width` its direction's component along the width
+    /// ([`along_width`]; its sign does not matter, the sinc is even), asked
+    /// for only by the element's own directivity: the lobe's evaluation costs
+    /// what it did before the element's was added.
     #[inline]
-    pub fn eval(&self, kind: ArrayKind, normal: &[T; 2], towards_source: Vec3<T>) -> T {
-        let cos_alpha = cos_to_normal(kind, normal, towards_source);
+    pub fn eval(&self, cos_alpha: T, along_width: impl FnOnce() -> T) -> T {
         match self {
-            Self::Element(d) => d.eval(cos_alpha, along_width(kind, normal, towards_source)),
+            Self::Element(d) => d.eval(cos_alpha, along_width()),
             Self::Lobe(lobe) => lobe.eval(cos_alpha),
         }
     }
@@ -360,16 +362,20 @@ mod tests {
     #[test]
     fn element_directivity_zeros_symmetry_and_frames() {
         let w_over_lambda = 1.6;
-        let rx = Receiver::Element(ElementDirectivity::new(w_over_lambda));
+        let element = Receiver::Element(ElementDirectivity::new(w_over_lambda));
+        let rx = |kind, normal: &[f64; 2], towards_source: Vec3<f64>| {
+            let cos_alpha = cos_to_normal(kind, normal, towards_source);
+            element.eval(cos_alpha, || along_width(kind, normal, towards_source))
+        };
         let flat = [0.0, 1.0];
         let at = |s: f64| Vec3::new(s, 0.0, (1.0 - s * s).sqrt());
         let first_zero = 1.0 / w_over_lambda;
-        assert!(rx.eval(ArrayKind::Linear, &flat, at(first_zero)).abs() < 1e-12);
-        assert!(rx.eval(ArrayKind::Linear, &flat, at(first_zero + 0.05)) < 0.0);
+        assert!(rx(ArrayKind::Linear, &flat, at(first_zero)).abs() < 1e-12);
+        assert!(rx(ArrayKind::Linear, &flat, at(first_zero + 0.05)) < 0.0);
         let (p, m) = (at(0.3), at(-0.3));
         assert_eq!(
-            rx.eval(ArrayKind::Linear, &flat, p),
-            rx.eval(ArrayKind::Linear, &flat, m)
+            rx(ArrayKind::Linear, &flat, p),
+            rx(ArrayKind::Linear, &flat, m)
         );
         // A convex element tilted by 0.2 rad: the same angle off its normal.
         let (sn, cn) = 0.2f64.sin_cos();
@@ -377,8 +383,8 @@ mod tests {
         let (sa, ca) = 0.3f64.sin_cos();
         let rotate = |x: f64, z: f64| Vec3::new(cn * x + sn * z, 0.0, cn * z - sn * x);
         let tilted = rotate(sa, ca);
-        let flat_value = rx.eval(ArrayKind::Linear, &flat, Vec3::new(sa, 0.0, ca));
-        assert!((rx.eval(ArrayKind::Convex, &normal, tilted) - flat_value).abs() < 1e-12);
+        let flat_value = rx(ArrayKind::Linear, &flat, Vec3::new(sa, 0.0, ca));
+        assert!((rx(ArrayKind::Convex, &normal, tilted) - flat_value).abs() < 1e-12);
         let d = ElementDirectivity::new(w_over_lambda);
         let (below, above) = (d.eval(1.0, 0.99e-4 / 5.03), d.eval(1.0, 1.01e-4 / 5.03));
         assert!((below - above).abs() < 1e-9);

@@ -7,7 +7,7 @@ use super::connection::power_heuristic;
 use super::context::PathCtx;
 use super::Deposit;
 use crate::effects::attenuation_and_exponent;
-use crate::probe::{centre3, cos_to_normal, element_at};
+use crate::probe::{along_width, centre3, cos_to_normal, element_at};
 use crate::scene::MaterialT;
 use usray_ad::Real;
 use usray_geometry::Ray;
@@ -54,7 +54,11 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     }
                     _ => T::one(),
                 };
-                let fd = self.receiver.eval(st.array.kind, &element.normal, -dir);
+                let fd = self
+                    .receiver
+                    .eval(-cos_to_normal(st.array.kind, &element.normal, dir), || {
+                        along_width(st.array.kind, &element.normal, dir)
+                    });
                 let tau = time + t_array / medium.sound_speed;
                 let (k, b) = attenuation_and_exponent(
                     medium.attenuation_db_cm_mhz,

@@ -8,7 +8,7 @@ use super::spreading::Spread;
 use super::{Deposit, T_MIN};
 use crate::effects::attenuation_and_exponent;
 use crate::fresnel::fresnel;
-use crate::probe::{centre3, cos_to_normal};
+use crate::probe::{along_width, centre3, cos_to_normal};
 use usray_ad::Real;
 use usray_geometry::{MediumStack, Ray, Vec3};
 
@@ -122,7 +122,9 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         let Link { e, wo, r } = *link;
         let normal = &st.elements[e].normal;
         let cos_e = -cos_to_normal(st.array.kind, normal, wo);
-        let fd = self.receiver.eval(st.array.kind, normal, -wo);
+        let fd = self
+            .receiver
+            .eval(cos_e, || along_width(st.array.kind, normal, wo));
         if fd.value() == 0.0 {
             return;
         }

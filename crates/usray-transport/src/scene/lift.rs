@@ -1,10 +1,7 @@
 //! The numeric state of a scene in any `T: Real`: what the tracer reads.
 
 use super::key::{Field, ParamKey};
-use super::{
-    Emission, ReceiveDirectivity, Scene, SceneError, ShapeKind, DEFAULT_CUTOFF_DEG,
-    DEFAULT_MAIN_LOBE_DEG,
-};
+use super::{Emission, ReceiveDirectivity, Scene, SceneError, ShapeKind};
 use crate::probe::{ElementDirectivity, ReceiveLobe, Receiver};
 use std::sync::Arc;
 use usray_ad::Real;
@@ -337,18 +334,16 @@ impl Scene {
                 array.element_width_m * center_frequency / get(ParamKey::medium(Field::SoundSpeed)),
             )),
             ReceiveDirectivity::Lobe => {
-                // An angle the scene leaves out takes the lobe's default.
-                let angle = |field, given: Option<f64>, default: f64| match given {
+                // An angle the scene gives is a parameter; one it leaves out
+                // is the lobe's default (`Probe::lobe_deg`).
+                let (main_lobe_deg, cutoff_deg) = self.probe.lobe_deg();
+                let angle = |field, given: Option<f64>, value: f64| match given {
                     Some(_) => probe(field) * deg,
-                    None => T::from_f64(default) * deg,
+                    None => T::from_f64(value) * deg,
                 };
                 Receiver::Lobe(ReceiveLobe::new(
-                    angle(
-                        Field::MainLobe,
-                        self.probe.main_lobe_deg,
-                        DEFAULT_MAIN_LOBE_DEG,
-                    ),
-                    angle(Field::Cutoff, self.probe.cutoff_deg, DEFAULT_CUTOFF_DEG),
+                    angle(Field::MainLobe, self.probe.main_lobe_deg, main_lobe_deg),
+                    angle(Field::Cutoff, self.probe.cutoff_deg, cutoff_deg),
                 ))
             }
         };

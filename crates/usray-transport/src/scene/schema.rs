@@ -59,11 +59,11 @@ pub struct Probe {
 
 /// The paper's receive lobe's main lobe when a scene asks for the lobe without
 /// giving it, degrees.
-pub const DEFAULT_MAIN_LOBE_DEG: f64 = 5.0;
+const DEFAULT_MAIN_LOBE_DEG: f64 = 5.0;
 
 /// The paper's receive lobe's cutoff when a scene asks for the lobe without
 /// giving it, degrees.
-pub const DEFAULT_CUTOFF_DEG: f64 = 60.0;
+const DEFAULT_CUTOFF_DEG: f64 = 60.0;
 
 /// How an element weighs an echo by its direction of arrival
 /// (`probe.receive_directivity`), on top of the obliquity `cos α` of its
