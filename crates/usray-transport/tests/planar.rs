@@ -12,13 +12,14 @@ use usray_transport::scene::Dimensions;
 use usray_transport::{render, RenderOptions, Scene};
 
 /// A scene from the tests' header with plane-wave emission (the default),
-/// 2-D when `planar`, with `body` appended.
+/// 2-D when `planar`, with `body` appended. The 2-D scene leaves out the
+/// aperture's edge waves, which 3-D does not model (`tests/edge_waves.rs`).
 fn scene(planar: bool, rays: usize, body: &str) -> Scene {
     let mut text = header(32, 0.27e-3, "[0.0]", rays, 3).replace("emission = \"cosine\"", "");
     if planar {
         text = text.replace(
             "sampler = \"independent\"",
-            "sampler = \"independent\"\ndimensions = 2",
+            "sampler = \"independent\"\ndimensions = 2\nedge_waves = false",
         );
     }
     Scene::from_toml_str(&format!("{text}\n{body}"), "<planar>", ".").unwrap()

@@ -5,7 +5,10 @@
 use super::branch::Branch;
 use super::settings::TraceSettings;
 use super::spreading::Spread;
-use crate::probe::{cosine_hemisphere, face_point, from_element_frame, transmit_directivity};
+use crate::probe::{
+    along_width, cos_to_normal, cosine_hemisphere, face_point, from_element_frame,
+    transmit_directivity,
+};
 use crate::rng::{dim, PathSampler};
 use crate::scene::{Emission, Sampler, SceneT};
 use usray_ad::Real;
@@ -111,6 +114,80 @@ pub(super) fn emit<T: Real>(
         bounce: 1,
         sampler,
     })
+}
+
+/// Step 1, edge waves: the branches that the outer edges of an end element's
+/// face (element 0's left, the last element's right) emit besides its primary
+/// branch, when the scene models the aperture's edge waves
+/// ([`super::edge`]): one per edge of the aperture this element ends, drawn
+/// with the path's own numbers on a branch key of their own.
+#[inline]
+pub(super) fn emit_edges<T: Real>(
+    st: &SceneT<T>,
+    settings: &TraceSettings,
+    tx: usize,
+    el: usize,
+    ray: u32,
+    start_stack: MediumStack,
+    mut push: impl FnMut(Branch<T>),
+) {
+    let Some(edges) = st.edge_waves else {
+        return;
+    };
+    let stratified_rays = match settings.sampler {
+        Sampler::Stratified => settings.rays_per_element as u32,
+        Sampler::Independent => 1,
+    };
+    let last = st.n_elements - 1;
+    // (side, branch key): the outward tangent is `side` times the element's.
+    let ends = [(-1.0, 2), (1.0, 3)]
+        .into_iter()
+        .filter(|&(side, _)| (side < 0.0 && el == 0) || (side > 0.0 && el == last));
+    for (side, key) in ends {
+        let sampler =
+            PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays)
+                .branch(key);
+        let kind = st.array.kind;
+        let element = st.elements[el];
+        let origin = face_point(
+            kind,
+            &element,
+            st.array.element_width_m,
+            st.elevation,
+            0.5 * side,
+            0.0,
+        );
+        let wave = st.transmits[tx];
+        // The wave's direction at the edge, in the element's frame.
+        let t = propagation_direction(&wave, origin);
+        let sin_theta = along_width(kind, &element.normal, t);
+        let cos_theta = cos_to_normal(kind, &element.normal, t);
+        let u = sampler.uniform(0, dim::EMIT_U1);
+        let Some((sin_psi, pdf)) = edges.sample(sin_theta.value(), side, u) else {
+            continue;
+        };
+        let cos_psi = (1.0 - sin_psi * sin_psi).max(0.0).sqrt();
+        let dir = from_element_frame(kind, &element, [sin_psi, 0.0, cos_psi]);
+        // u = τ·(t − d), τ = side · tangent.
+        let u = (sin_theta - T::from_f64(sin_psi)).scale(side);
+        let w = edges.amplitude(cos_theta.max(T::zero()), u) / T::from_f64(pdf);
+        let time =
+            wave.arrival_time_s([origin.x, origin.z], st.imaging_sound_speed) + edges.delay_s();
+        push(Branch {
+            origin,
+            dir,
+            w,
+            beta: T::zero(),
+            time,
+            stack: start_stack,
+            specular_chain: true,
+            last_rough: None,
+            rough_vertices: 0,
+            spread: Some(Spread::point_source()),
+            bounce: 1,
+            sampler,
+        });
+    }
 }
 
 /// The in-plane curvature (1/m, positive diverging) of the transmitted

@@ -87,6 +87,7 @@ mod arrival;
 mod branch;
 mod connection;
 mod context;
+mod edge;
 mod emission;
 mod horizon;
 mod interface;
@@ -95,6 +96,7 @@ mod settings;
 mod spreading;
 mod volume;
 
+pub use edge::EdgeWaves;
 pub(crate) use horizon::Horizon;
 pub(crate) use path::trace_path_within;
 pub use path::{element_stack, trace_path, trace_path_casts, trace_path_from};

@@ -2,6 +2,7 @@
 
 use super::key::{Field, ParamKey};
 use super::{Emission, ReceiveDirectivity, Scene, SceneError, ShapeKind};
+use crate::integrator::EdgeWaves;
 use crate::probe::{ElementDirectivity, ReceiveLobe, Receiver};
 use std::sync::Arc;
 use usray_ad::Real;
@@ -148,6 +149,9 @@ pub struct SceneT<T> {
     /// 2-D transport (`acquisition.dimensions = 2`): rays, normals and lobes in
     /// the `xz` plane, densities per radian.
     pub planar: bool,
+    /// The transmit aperture's edge waves (`acquisition.edge_waves`; `None`:
+    /// not modelled).
+    pub edge_waves: Option<EdgeWaves<T>>,
 }
 
 impl<T: Real> SceneT<T> {
@@ -347,6 +351,26 @@ impl Scene {
                 ))
             }
         };
+        let planar = self.acquisition.is_planar();
+        if self.acquisition.edge_waves == Some(true) && !planar {
+            return Err(SceneError::new(
+                &self.source,
+                "acquisition.edge_waves".to_string(),
+                "edge waves are modelled in 2-D only (`acquisition.dimensions = 2`): \
+                 3-D paths keep the energy law, which has no edge-wave term"
+                    .to_string(),
+            ));
+        }
+        // The edge waves radiate into the background medium; their boundary is
+        // regularised at half the recorded depth (`integrator::EdgeWaves`).
+        let edge_waves = self.acquisition.has_edge_waves().then(|| {
+            EdgeWaves::new(
+                center_frequency,
+                get(ParamKey::medium(Field::SoundSpeed)),
+                array.element_width_m,
+                0.5 * self.acquisition.max_depth_m,
+            )
+        });
         Ok(SceneT {
             medium: material(&ParamKey::medium, false),
             objects,
@@ -369,7 +393,8 @@ impl Scene {
                 None => get(ParamKey::medium(Field::SoundSpeed)),
             },
             emission: self.acquisition.emission,
-            planar: self.acquisition.is_planar(),
+            planar,
+            edge_waves,
         })
     }
 

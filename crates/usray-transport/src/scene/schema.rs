@@ -148,6 +148,11 @@ pub struct Acquisition {
     /// How primary ray directions are chosen (default `"plane_wave"`).
     #[serde(default)]
     pub emission: Emission,
+    /// Whether the transmit aperture's two edges radiate their edge waves
+    /// (the finite aperture's diffraction; `integrator::EdgeWaves`). Unset: on
+    /// for the collimated emission in 2-D, the only case that models them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edge_waves: Option<bool>,
     /// How an element's rays draw their random numbers (default `"stratified"`).
     #[serde(default)]
     pub sampler: Sampler,
@@ -169,6 +174,13 @@ impl Acquisition {
     /// Traced in 2-D: `dimensions = 2` (unset is 3).
     pub fn is_planar(&self) -> bool {
         self.dimensions.is_some_and(|d| d.is_planar())
+    }
+
+    /// The transmit aperture radiates edge waves: `edge_waves` when given,
+    /// else the collimated emission in 2-D (the only case that models them).
+    pub fn has_edge_waves(&self) -> bool {
+        self.edge_waves
+            .unwrap_or(self.emission == Emission::PlaneWave && self.is_planar())
     }
 }
 
@@ -221,7 +233,8 @@ pub enum Emission {
     /// transmitted wave's ray through its emission point (a plane wave's
     /// steering direction `(sin θ, 0, cos θ)`; away from a virtual source;
     /// towards a focus) with weight `f_d = n·ω` (paper eq. `directivity` at
-    /// that direction). No edge waves; far less noise.
+    /// that direction); in 2-D, the aperture's edge waves besides
+    /// (`acquisition.edge_waves`). Far less noise.
     #[default]
     PlaneWave,
 }
@@ -593,6 +606,13 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     pos("acquisition.max_depth_m", a.max_depth_m)?;
     if a.rays_per_element == 0 {
         return err("acquisition.rays_per_element", "expected at least 1 ray");
+    }
+    if a.edge_waves == Some(true) && a.emission == Emission::Cosine {
+        return err(
+            "acquisition.edge_waves",
+            "applies only to `emission = \"plane_wave\"`: the cosine lobe has no aperture \
+             (each element radiates alone)",
+        );
     }
     if a.receivers_per_event == Some(0) {
         return err(
