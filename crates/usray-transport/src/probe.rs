@@ -91,6 +91,17 @@ pub fn from_element_frame<T: Real>(kind: ArrayKind, el: &Element<T>, local: [f64
     Vec3::new(n_z * a + n_x * c, T::from_f64(local[1]), n_z * c - n_x * a)
 }
 
+/// The in-plane direction with components `a` along element `el`'s tangent
+/// and `c` along its normal ([`from_element_frame`] for components in `T`).
+#[inline]
+pub fn from_element_frame_xz<T: Real>(kind: ArrayKind, el: &Element<T>, a: T, c: T) -> Vec3<T> {
+    if kind.is_flat() {
+        return Vec3::new(a, T::zero(), c);
+    }
+    let [n_x, n_z] = el.normal;
+    Vec3::new(n_z * a + n_x * c, T::zero(), n_z * c - n_x * a)
+}
+
 /// Cosine-weighted direction on the `+z` hemisphere from two uniforms (Malley's
 /// method, pbrt-v4 §A.5.3): density `cos θ / π` per steradian.
 #[inline]

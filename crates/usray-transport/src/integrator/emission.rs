@@ -7,7 +7,7 @@ use super::settings::TraceSettings;
 use super::spreading::Spread;
 use crate::probe::{
     along_width, cos_to_normal, cosine_hemisphere, face_point, from_element_frame,
-    transmit_directivity,
+    from_element_frame_xz, transmit_directivity,
 };
 use crate::rng::{dim, PathSampler};
 use crate::scene::{Emission, Sampler, SceneT};
@@ -119,8 +119,9 @@ pub(super) fn emit<T: Real>(
 /// Step 1, edge waves: the branches that the outer edges of an end element's
 /// face (element 0's left, the last element's right) emit besides its primary
 /// branch, when the scene models the aperture's edge waves
-/// ([`super::edge`]): one per edge of the aperture this element ends, drawn
-/// with the path's own numbers on a branch key of their own.
+/// ([`super::edge`]): [`super::edge::EdgeWaves::rays_per_edge`] rays from each edge this
+/// element ends, their directions stratified over the element's rays and
+/// these sub-rays together, each on a branch key of its own.
 #[inline]
 pub(super) fn emit_edges<T: Real>(
     st: &SceneT<T>,
@@ -143,8 +144,10 @@ pub(super) fn emit_edges<T: Real>(
     let ends = [(-1.0, 2), (1.0, 3)]
         .into_iter()
         .filter(|&(side, _)| (side < 0.0 && el == 0) || (side > 0.0 && el == last));
+    let n_sub = edges.rays_per_edge();
+    let per_ray = T::from_f64(1.0 / f64::from(n_sub));
     for (side, key) in ends {
-        let sampler =
+        let ray_sampler =
             PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays)
                 .branch(key);
         let kind = st.array.kind;
@@ -162,31 +165,35 @@ pub(super) fn emit_edges<T: Real>(
         let t = propagation_direction(&wave, origin);
         let sin_theta = along_width(kind, &element.normal, t);
         let cos_theta = cos_to_normal(kind, &element.normal, t);
-        let u = sampler.uniform(0, dim::EMIT_U1);
-        let Some((sin_psi, pdf)) = edges.sample(sin_theta.value(), side, u) else {
-            continue;
-        };
-        let cos_psi = (1.0 - sin_psi * sin_psi).max(0.0).sqrt();
-        let dir = from_element_frame(kind, &element, [sin_psi, 0.0, cos_psi]);
-        // u = τ·(t − d), τ = side · tangent.
-        let u = (sin_theta - T::from_f64(sin_psi)).scale(side);
-        let w = edges.amplitude(cos_theta.max(T::zero()), u) / T::from_f64(pdf);
         let time =
             wave.arrival_time_s([origin.x, origin.z], st.imaging_sound_speed) + edges.delay_s();
-        push(Branch {
-            origin,
-            dir,
-            w,
-            beta: T::zero(),
-            time,
-            stack: start_stack,
-            specular_chain: true,
-            last_rough: None,
-            rough_vertices: 0,
-            spread: Some(Spread::point_source()),
-            bounce: 1,
-            sampler,
-        });
+        let u_ray = ray_sampler.uniform(0, dim::EMIT_U1);
+        for m in 0..n_sub {
+            let sampler = ray_sampler.branch(16 + m);
+            let u = (f64::from(m) + u_ray) / f64::from(n_sub);
+            let Some((sin_psi, pdf)) = edges.sample(sin_theta, side, u) else {
+                continue;
+            };
+            let cos_psi = (T::one() - sin_psi * sin_psi).max(T::zero()).sqrt();
+            let dir = from_element_frame_xz(kind, &element, sin_psi, cos_psi);
+            // u = τ·(t − d), τ = side · tangent.
+            let u = (sin_theta - sin_psi).scale(side);
+            let w = edges.amplitude(cos_theta.max(T::zero()), u) / pdf * per_ray;
+            push(Branch {
+                origin,
+                dir,
+                w,
+                beta: T::zero(),
+                time,
+                stack: start_stack,
+                specular_chain: true,
+                last_rough: None,
+                rough_vertices: 0,
+                spread: Some(Spread::point_source()),
+                bounce: 1,
+                sampler,
+            });
+        }
     }
 }
 

@@ -368,6 +368,7 @@ impl Scene {
                 center_frequency,
                 get(ParamKey::medium(Field::SoundSpeed)),
                 array.element_width_m,
+                self.probe.n_elements,
                 0.5 * self.acquisition.max_depth_m,
             )
         });
