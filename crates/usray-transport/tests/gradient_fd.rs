@@ -202,11 +202,12 @@ fn scatterer_density_and_strength_match_finite_differences() {
 fn planar_transport_matches_finite_differences() {
     // The same checks in 2-D (`acquisition.dimensions = 2`): the in-plane
     // microfacet sample, its densities per radian, the connections' 1/r
-    // measure and the planar scatterer field are differentiated like the 3-D
-    // ones. Steps and tolerances as above.
+    // measure, the planar scatterer field and the aperture's edge waves
+    // (their samples and weights) are differentiated like the 3-D ones.
+    // Steps and tolerances as above.
     let planar = (
         "emission = \"plane_wave\"",
-        "emission = \"plane_wave\"\ndimensions = 2",
+        "emission = \"plane_wave\"\ndimensions = 2\nedge_waves = true",
     );
     let scene = scene_0deg("cylinder.toml", CYL_ANGLES, &[planar]);
     assert_tight("2-D cylinder", &check(&scene, SAMPLING_PARAMS));

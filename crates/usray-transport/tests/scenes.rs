@@ -80,6 +80,35 @@ fn receive_directivity_defaults_to_the_element() {
     );
 }
 
+/// Edge waves are off unless asked for; asked for, a 2-D plane-wave scene
+/// lifts them, and a 3-D or cosine-lobe scene is refused naming the key.
+#[test]
+fn edge_waves_are_asked_for_and_refused_where_not_modelled() {
+    let path = scene_path("cylinder.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let load = |t: &str| Scene::from_toml_str(t, "cylinder.toml", scene_path(""));
+    let with = |keys: &str| text.replace("[acquisition]\n", &format!("[acquisition]\n{keys}\n"));
+    let planar = load(&with("dimensions = 2")).unwrap();
+    assert!(planar.lift_const::<f64>().unwrap().edge_waves.is_none());
+    let asked = load(&with("dimensions = 2\nedge_waves = true")).unwrap();
+    assert!(asked.lift_const::<f64>().unwrap().edge_waves.is_some());
+    // 3-D: the scene parses (the dimensions may come from the data) and its
+    // lift refuses.
+    let three_d = load(&with("edge_waves = true")).unwrap();
+    let e = three_d.lift_const::<f64>().unwrap_err().to_string();
+    assert!(
+        e.contains("acquisition.edge_waves") && e.contains("2-D"),
+        "{e}"
+    );
+    let cosine =
+        with("edge_waves = true").replace("emission = \"plane_wave\"", "emission = \"cosine\"");
+    let e = load(&cosine).unwrap_err().to_string();
+    assert!(
+        e.contains("acquisition.edge_waves") && e.contains("cosine"),
+        "{e}"
+    );
+}
+
 /// A scene that leaves out `[imaging]` images with the beamformer's defaults
 /// (`ImagingSettings::default()`, usray-signal), the sound speed aside: the
 /// scene's is the medium's. `scenes/cylinder.toml` without its `[imaging]`

@@ -149,8 +149,10 @@ pub struct Acquisition {
     #[serde(default)]
     pub emission: Emission,
     /// Whether the transmit aperture's two edges radiate their edge waves
-    /// (the finite aperture's diffraction; `integrator::EdgeWaves`). Unset: on
-    /// for the collimated emission in 2-D, the only case that models them.
+    /// (the finite aperture's diffraction; `integrator::EdgeWaves`), with the
+    /// collimated emission in 2-D, the only case that models them. Off unless
+    /// asked for: their echoes lie in the image's faint regions, where at a
+    /// diagnosis's ray counts their Monte Carlo noise dominates the log image.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub edge_waves: Option<bool>,
     /// How an element's rays draw their random numbers (default `"stratified"`).
@@ -176,11 +178,9 @@ impl Acquisition {
         self.dimensions.is_some_and(|d| d.is_planar())
     }
 
-    /// The transmit aperture radiates edge waves: `edge_waves` when given,
-    /// else the collimated emission in 2-D (the only case that models them).
+    /// The transmit aperture radiates edge waves: `edge_waves = true`.
     pub fn has_edge_waves(&self) -> bool {
-        self.edge_waves
-            .unwrap_or(self.emission == Emission::PlaneWave && self.is_planar())
+        self.edge_waves == Some(true)
     }
 }
 
@@ -233,8 +233,8 @@ pub enum Emission {
     /// transmitted wave's ray through its emission point (a plane wave's
     /// steering direction `(sin θ, 0, cos θ)`; away from a virtual source;
     /// towards a focus) with weight `f_d = n·ω` (paper eq. `directivity` at
-    /// that direction); in 2-D, the aperture's edge waves besides
-    /// (`acquisition.edge_waves`). Far less noise.
+    /// that direction); in 2-D, with `acquisition.edge_waves = true`, the
+    /// aperture's edge waves besides. Far less noise.
     #[default]
     PlaneWave,
 }
