@@ -28,12 +28,7 @@ pub(super) fn emit<T: Real>(
     ray: u32,
     start_stack: MediumStack,
 ) -> Option<Branch<T>> {
-    let stratified_rays = match settings.sampler {
-        Sampler::Stratified => settings.rays_per_element as u32,
-        Sampler::Independent => 1,
-    };
-    let sampler =
-        PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays);
+    let sampler = path_sampler(settings, tx, el, ray);
     // Step 1: emission from the element face, at the element's firing time.
     let kind = st.array.kind;
     let element = st.elements[el];
@@ -100,20 +95,52 @@ pub(super) fn emit<T: Real>(
             (dir, transmit_directivity(kind, &element, dir), time, tube)
         }
     };
-    Some(Branch {
+    Some(emitted(
+        origin,
+        dir,
+        w,
+        time,
+        start_stack,
+        st.planar.then_some(tube),
+        sampler,
+    ))
+}
+
+/// The random numbers of path `ray` of element `el` in transmit `tx`,
+/// stratified with the element's other rays when the sampler is.
+fn path_sampler(settings: &TraceSettings, tx: usize, el: usize, ray: u32) -> PathSampler {
+    let stratified_rays = match settings.sampler {
+        Sampler::Stratified => settings.rays_per_element as u32,
+        Sampler::Independent => 1,
+    };
+    PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays)
+}
+
+/// A branch leaving the array: before its first interaction, every one so
+/// far a delta lobe, no attenuation yet.
+fn emitted<T: Real>(
+    origin: Vec3<T>,
+    dir: Vec3<T>,
+    w: T,
+    time: T,
+    stack: MediumStack,
+    spread: Option<Spread<T>>,
+    sampler: PathSampler,
+) -> Branch<T> {
+    Branch {
         origin,
         dir,
         w,
         beta: T::zero(),
         time,
-        stack: start_stack,
+        stack,
         specular_chain: true,
         last_rough: None,
         rough_vertices: 0,
-        spread: st.planar.then_some(tube),
+        spread,
         bounce: 1,
         sampler,
-    })
+    }
 }
 
 /// Step 1, edge waves: the branches that the outer edges of an end element's
@@ -135,10 +162,6 @@ pub(super) fn emit_edges<T: Real>(
     let Some(edges) = st.edge_waves else {
         return;
     };
-    let stratified_rays = match settings.sampler {
-        Sampler::Stratified => settings.rays_per_element as u32,
-        Sampler::Independent => 1,
-    };
     let last = st.n_elements - 1;
     // (side, branch key): the outward tangent is `side` times the element's.
     let ends = [(-1.0, 2), (1.0, 3)]
@@ -147,9 +170,7 @@ pub(super) fn emit_edges<T: Real>(
     let n_sub = edges.rays_per_edge();
     let per_ray = T::from_f64(1.0 / f64::from(n_sub));
     for (side, key) in ends {
-        let ray_sampler =
-            PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays)
-                .branch(key);
+        let ray_sampler = path_sampler(settings, tx, el, ray).branch(key);
         let kind = st.array.kind;
         let element = st.elements[el];
         let origin = face_point(
@@ -179,20 +200,15 @@ pub(super) fn emit_edges<T: Real>(
             // u = τ·(t − d), τ = side · tangent.
             let u = (sin_theta - sin_psi).scale(side);
             let w = edges.amplitude(cos_theta.max(T::zero()), u) / pdf * per_ray;
-            push(Branch {
+            push(emitted(
                 origin,
                 dir,
                 w,
-                beta: T::zero(),
                 time,
-                stack: start_stack,
-                specular_chain: true,
-                last_rough: None,
-                rough_vertices: 0,
-                spread: Some(Spread::point_source()),
-                bounce: 1,
+                start_stack,
+                Some(Spread::point_source()),
                 sampler,
-            });
+            ));
         }
     }
 }
