@@ -83,12 +83,11 @@ pub fn face_point<T: Real>(
 /// tangent, `y` and normal (a flat array's frame is the world frame).
 #[inline]
 pub fn from_element_frame<T: Real>(kind: ArrayKind, el: &Element<T>, local: [f64; 3]) -> Vec3<T> {
-    if kind.is_flat() {
-        return Vec3::from_f64s(local);
+    let [a, b, c] = local.map(T::from_f64);
+    Vec3 {
+        y: b,
+        ..from_element_frame_xz(kind, el, a, c)
     }
-    let [n_x, n_z] = el.normal;
-    let (a, c) = (T::from_f64(local[0]), T::from_f64(local[2]));
-    Vec3::new(n_z * a + n_x * c, T::from_f64(local[1]), n_z * c - n_x * a)
 }
 
 /// The in-plane direction with components `a` along element `el`'s tangent

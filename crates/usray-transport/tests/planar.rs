@@ -4,7 +4,7 @@
 //! bad value of the key is refused with its name.
 
 mod common;
-use common::{header, mean_se};
+use common::{element_echoes, header, mean_se};
 use usray_signal::io::declared_dimensions_of;
 use usray_transport::integrator::{element_stack, trace_path_casts, TraceSettings};
 use usray_transport::plan::AcquisitionPlan;
@@ -46,17 +46,7 @@ fn thin_elements(mut s: Scene) -> Scene {
 /// Σ of every deposit amplitude on the two central elements (15, 16) of a
 /// render of `s` with `seed` (the impulse data sums to Σ a_k).
 fn central_echo(s: &Scene, seed: u64) -> f64 {
-    let opts = RenderOptions {
-        seed: Some(seed),
-        impulse_only: true,
-        threads: Some(2),
-        ..Default::default()
-    };
-    let (d, _) = render(s, &opts).unwrap();
-    [15, 16]
-        .iter()
-        .map(|&e| d.record(0, e).iter().sum::<f64>())
-        .sum()
+    element_echoes(s, seed)[15..=16].iter().sum()
 }
 
 /// Ratio of the mean central echo at `near` to that at `far`, with its

@@ -6,8 +6,8 @@
 //! negative side lobe, within error bars the test computes over seeds.
 
 mod common;
-use common::{header, mean_se};
-use usray_transport::{render, RenderOptions, Scene};
+use common::{element_echoes, header, mean_se};
+use usray_transport::Scene;
 
 /// The rod's depth and lateral position (under element 16's centre, so that
 /// its rays meet it), m; the probe's centre frequency, Hz (λ = 0.154 mm: a
@@ -41,18 +41,6 @@ fn scene(planar: bool, lobe: &str) -> Scene {
     Scene::from_toml_str(&format!("{text}\n{body}"), "<directivity>", ".").unwrap()
 }
 
-/// Σ of every deposit amplitude on each element (impulse data), seed `seed`.
-fn echoes(s: &Scene, seed: u64) -> Vec<f64> {
-    let opts = RenderOptions {
-        seed: Some(seed),
-        impulse_only: true,
-        threads: Some(2),
-        ..Default::default()
-    };
-    let (d, _) = render(s, &opts).unwrap();
-    (0..32).map(|e| d.record(0, e).iter().sum()).collect()
-}
-
 #[test]
 fn a_rods_echo_on_each_element_follows_the_elements_sinc() {
     let w_over_lambda = 0.27e-3 * F_C / 1540.0;
@@ -64,7 +52,10 @@ fn a_rods_echo_on_each_element_follows_the_elements_sinc() {
         // Per seed and element, the ratio of the two renders (same paths).
         let ratios: Vec<Vec<f64>> = (1..=8)
             .map(|seed| {
-                let (flat, sinc) = (echoes(&flat_scene, seed), echoes(&sinc_scene, seed));
+                let (flat, sinc) = (
+                    element_echoes(&flat_scene, seed),
+                    element_echoes(&sinc_scene, seed),
+                );
                 flat.iter().zip(&sinc).map(|(f, s)| s / f).collect()
             })
             .collect();

@@ -90,7 +90,7 @@ impl<T: Real> EdgeWaves<T> {
             scale: (two_pi_k.recip().scale(POINT_SOURCE_REFERENCE_M)).sqrt() / element_width,
             epsilon: (two_pi_k.scale(reference_range_m)).sqrt().recip(),
             delay_s: center_frequency.scale(8.0).recip(),
-            rays_per_edge: (n_elements as u32).div_ceil(2).max(1),
+            rays_per_edge: (n_elements as u32).div_ceil(2),
         }
     }
 
@@ -200,6 +200,9 @@ mod tests {
                 er += amp * ph.cos();
                 ei += amp * ph.sin();
             }
+            // The end-point expansion's next term is of relative order
+            // 1/(kR u²): 2–3% at these points (kR 130–210, u ≈ 0.5–0.6),
+            // measured 1.5–2.1%. Allowed 5%; a 10% amplitude error fails.
             let err = ((re - er).powi(2) + (im - ei).powi(2)).sqrt();
             let size = (er * er + ei * ei).sqrt();
             assert!(

@@ -1,8 +1,10 @@
 //! Step 1 of the path loop: the primary branch leaves a point of the element's
 //! face, in a direction set by `acquisition.emission`, at the time the
-//! transmit's wave leaves that point.
+//! transmit's wave leaves that point; with `acquisition.edge_waves`, an end
+//! element's path also sends the aperture's edge waves ([`super::edge`]).
 
 use super::branch::Branch;
+use super::edge::EdgeWaves;
 use super::settings::TraceSettings;
 use super::spreading::Spread;
 use crate::probe::{
@@ -15,10 +17,11 @@ use usray_ad::Real;
 use usray_geometry::{MediumStack, Vec3};
 use usray_signal::transmit::TransmitWave;
 
-/// Step 1: the primary branch of the path (transmit `tx`, emitting element
-/// `el`, ray index `ray`) in the element's medium stack `start_stack`, or
-/// `None` when its sampled direction has no density (a cosine sample in the
-/// face's plane).
+/// Step 1: push the branches the path (transmit `tx`, emitting element `el`,
+/// ray index `ray`) starts with, in the element's medium stack
+/// `start_stack`: an end element's edge-wave branches, if the scene models
+/// them, then the primary branch (none when its sampled direction has no
+/// density: a cosine sample in the face's plane), so that it is traced first.
 #[inline]
 pub(super) fn emit<T: Real>(
     st: &SceneT<T>,
@@ -27,9 +30,33 @@ pub(super) fn emit<T: Real>(
     el: usize,
     ray: u32,
     start_stack: MediumStack,
+    mut push: impl FnMut(Branch<T>),
+) {
+    let stratified_rays = match settings.sampler {
+        Sampler::Stratified => settings.rays_per_element as u32,
+        Sampler::Independent => 1,
+    };
+    let sampler =
+        PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays);
+    if let Some(edges) = st.edge_waves {
+        emit_edges(st, &edges, tx, el, &sampler, start_stack, &mut push);
+    }
+    if let Some(primary) = emit_primary(st, tx, el, sampler, start_stack) {
+        push(primary);
+    }
+}
+
+/// The primary branch of the path, or `None` when its sampled direction has
+/// no density.
+#[inline]
+fn emit_primary<T: Real>(
+    st: &SceneT<T>,
+    tx: usize,
+    el: usize,
+    sampler: PathSampler,
+    start_stack: MediumStack,
 ) -> Option<Branch<T>> {
-    let sampler = path_sampler(settings, tx, el, ray);
-    // Step 1: emission from the element face, at the element's firing time.
+    // Emission from the element face, at the element's firing time.
     let kind = st.array.kind;
     let element = st.elements[el];
     let ux = sampler.uniform(0, dim::EMIT_X) - 0.5;
@@ -106,16 +133,6 @@ pub(super) fn emit<T: Real>(
     ))
 }
 
-/// The random numbers of path `ray` of element `el` in transmit `tx`,
-/// stratified with the element's other rays when the sampler is.
-fn path_sampler(settings: &TraceSettings, tx: usize, el: usize, ray: u32) -> PathSampler {
-    let stratified_rays = match settings.sampler {
-        Sampler::Stratified => settings.rays_per_element as u32,
-        Sampler::Independent => 1,
-    };
-    PathSampler::stratified(settings.seed, tx as u32, el as u32, ray, stratified_rays)
-}
-
 /// A branch leaving the array: before its first interaction, every one so
 /// far a delta lobe, no attenuation yet.
 fn emitted<T: Real>(
@@ -143,36 +160,33 @@ fn emitted<T: Real>(
     }
 }
 
-/// Step 1, edge waves: the branches that the outer edges of an end element's
-/// face (element 0's left, the last element's right) emit besides its primary
-/// branch, when the scene models the aperture's edge waves
-/// ([`super::edge`]): [`super::edge::EdgeWaves::rays_per_edge`] rays from each edge this
-/// element ends, their directions stratified over the element's rays and
-/// these sub-rays together, each on a branch key of its own.
+/// The edge-wave branches of an end element's path (element 0's left edge,
+/// the last element's right; [`super::edge`]):
+/// [`EdgeWaves::rays_per_edge`] rays from each edge this element ends, their
+/// directions stratified over the element's rays and these sub-rays
+/// together, each on a branch key of its own under the path's `sampler`.
 #[inline]
-pub(super) fn emit_edges<T: Real>(
+fn emit_edges<T: Real>(
     st: &SceneT<T>,
-    settings: &TraceSettings,
+    edges: &EdgeWaves<T>,
     tx: usize,
     el: usize,
-    ray: u32,
+    sampler: &PathSampler,
     start_stack: MediumStack,
-    mut push: impl FnMut(Branch<T>),
+    push: &mut impl FnMut(Branch<T>),
 ) {
-    let Some(edges) = st.edge_waves else {
-        return;
-    };
     let last = st.n_elements - 1;
     // (side, branch key): the outward tangent is `side` times the element's.
     let ends = [(-1.0, 2), (1.0, 3)]
         .into_iter()
         .filter(|&(side, _)| (side < 0.0 && el == 0) || (side > 0.0 && el == last));
+    let kind = st.array.kind;
+    let element = st.elements[el];
+    let wave = st.transmits[tx];
     let n_sub = edges.rays_per_edge();
     let per_ray = T::from_f64(1.0 / f64::from(n_sub));
     for (side, key) in ends {
-        let ray_sampler = path_sampler(settings, tx, el, ray).branch(key);
-        let kind = st.array.kind;
-        let element = st.elements[el];
+        let edge_sampler = sampler.branch(key);
         let origin = face_point(
             kind,
             &element,
@@ -181,16 +195,14 @@ pub(super) fn emit_edges<T: Real>(
             0.5 * side,
             0.0,
         );
-        let wave = st.transmits[tx];
         // The wave's direction at the edge, in the element's frame.
         let t = propagation_direction(&wave, origin);
         let sin_theta = along_width(kind, &element.normal, t);
         let cos_theta = cos_to_normal(kind, &element.normal, t);
         let time =
             wave.arrival_time_s([origin.x, origin.z], st.imaging_sound_speed) + edges.delay_s();
-        let u_ray = ray_sampler.uniform(0, dim::EMIT_U1);
+        let u_ray = edge_sampler.uniform(0, dim::EMIT_U1);
         for m in 0..n_sub {
-            let sampler = ray_sampler.branch(16 + m);
             let u = (f64::from(m) + u_ray) / f64::from(n_sub);
             let Some((sin_psi, pdf)) = edges.sample(sin_theta, side, u) else {
                 continue;
@@ -207,7 +219,7 @@ pub(super) fn emit_edges<T: Real>(
                 time,
                 start_stack,
                 Some(Spread::point_source()),
-                sampler,
+                edge_sampler.branch(16 + m),
             ));
         }
     }

@@ -2,7 +2,7 @@
 //! the emitted branch and every continuation it splits into, depth first.
 
 use super::context::PathCtx;
-use super::emission::{emit, emit_edges};
+use super::emission::emit;
 use super::horizon::Horizon;
 use super::settings::TraceSettings;
 use super::{Deposit, TraceCounters};
@@ -119,13 +119,10 @@ fn trace<T: Real>(
         cast,
     };
     // Branches still to trace, depth first (at most one pending sibling per
-    // vertex, so the stack stays shorter than `max_bounces + 4` with the
-    // edge waves' branches).
-    let mut pending = Vec::with_capacity(settings.max_bounces as usize + 4);
-    emit_edges(st, settings, tx, el, ray, start_stack, |b| pending.push(b));
-    if let Some(primary) = emit(st, settings, tx, el, ray, start_stack) {
-        pending.push(primary);
-    }
+    // vertex, so the stack stays shorter than `max_bounces + 2`; an end
+    // element's edge-wave branches, emitted first, add their number).
+    let mut pending = Vec::with_capacity(settings.max_bounces as usize + 2);
+    emit(st, settings, tx, el, ray, start_stack, |b| pending.push(b));
     while let Some(b) = pending.pop() {
         ctx.trace_branch(b, &mut pending);
     }

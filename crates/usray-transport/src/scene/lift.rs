@@ -352,7 +352,7 @@ impl Scene {
             }
         };
         let planar = self.acquisition.is_planar();
-        if self.acquisition.edge_waves == Some(true) && !planar {
+        if self.acquisition.edge_waves && !planar {
             return Err(SceneError::new(
                 &self.source,
                 "acquisition.edge_waves".to_string(),
@@ -363,7 +363,7 @@ impl Scene {
         }
         // The edge waves radiate into the background medium; their boundary is
         // regularised at half the recorded depth (`integrator::EdgeWaves`).
-        let edge_waves = self.acquisition.has_edge_waves().then(|| {
+        let edge_waves = self.acquisition.edge_waves.then(|| {
             EdgeWaves::new(
                 center_frequency,
                 get(ParamKey::medium(Field::SoundSpeed)),

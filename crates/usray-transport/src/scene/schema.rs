@@ -153,8 +153,8 @@ pub struct Acquisition {
     /// collimated emission in 2-D, the only case that models them. Off unless
     /// asked for: their echoes lie in the image's faint regions, where at a
     /// diagnosis's ray counts their Monte Carlo noise dominates the log image.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub edge_waves: Option<bool>,
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub edge_waves: bool,
     /// How an element's rays draw their random numbers (default `"stratified"`).
     #[serde(default)]
     pub sampler: Sampler,
@@ -176,11 +176,6 @@ impl Acquisition {
     /// Traced in 2-D: `dimensions = 2` (unset is 3).
     pub fn is_planar(&self) -> bool {
         self.dimensions.is_some_and(|d| d.is_planar())
-    }
-
-    /// The transmit aperture radiates edge waves: `edge_waves = true`.
-    pub fn has_edge_waves(&self) -> bool {
-        self.edge_waves == Some(true)
     }
 }
 
@@ -607,7 +602,7 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     if a.rays_per_element == 0 {
         return err("acquisition.rays_per_element", "expected at least 1 ray");
     }
-    if a.edge_waves == Some(true) && a.emission == Emission::Cosine {
+    if a.edge_waves && a.emission == Emission::Cosine {
         return err(
             "acquisition.edge_waves",
             "applies only to `emission = \"plane_wave\"`: the cosine lobe has no aperture \

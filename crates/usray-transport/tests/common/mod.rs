@@ -47,6 +47,21 @@ sampler = "independent"
     )
 }
 
+/// Σ of every deposit amplitude on each element of transmit 0 (the
+/// impulse data of a render of `s` with `seed` sums to Σ a_k).
+pub fn element_echoes(s: &usray_transport::Scene, seed: u64) -> Vec<f64> {
+    let opts = usray_transport::RenderOptions {
+        seed: Some(seed),
+        impulse_only: true,
+        threads: Some(2),
+        ..Default::default()
+    };
+    let (d, _) = usray_transport::render(s, &opts).unwrap();
+    (0..d.n_elements())
+        .map(|e| d.record(0, e).iter().sum())
+        .collect()
+}
+
 /// Path of a file in the workspace `scenes/` directory.
 pub fn scene_path(name: &str) -> std::path::PathBuf {
     usray_testdata::workspace_file("scenes").join(name)
