@@ -79,6 +79,22 @@ pub enum ExportFormat {
     Uff,
 }
 
+/// How a model's image and the measured one are put on one dB scale
+/// (`--levels`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Levels {
+    /// Absolute where the data allow it (channel data declaring `amplitude_unit`
+    /// = "Pa per 1 Pa source pressure", a scene traced in 2-D with the collimated
+    /// emission), else relative.
+    Auto,
+    /// Each image against its own maximum.
+    Relative,
+    /// Both against the measured image's maximum, so that an echo's strength
+    /// counts (a wall's impedance is fixed by it); refused, saying why, where
+    /// the data are not in the renders' unit.
+    Absolute,
+}
+
 /// The subcommands of CONTRACT §4.
 #[derive(Debug, Subcommand)]
 pub enum Command {
@@ -180,6 +196,13 @@ pub enum Command {
         /// parameter's range down to 1e-9 of it) and plot FD vs AD.
         #[arg(long)]
         fd_sweep: bool,
+        /// Levels: `auto` compares absolute levels where the data are in the
+        /// renders' unit (2-D, collimated emission, `amplitude_unit` = "Pa per 1 Pa
+        /// source pressure", as k-Wave's generator writes), so that a wall's
+        /// impedance is fixed by its echo's strength; `relative` puts each image
+        /// against its own maximum; `absolute` requires the former.
+        #[arg(long, value_enum, default_value_t = Levels::Auto)]
+        levels: Levels,
         /// Rays, seed and sampler.
         #[command(flatten)]
         sampling: Sampling,
@@ -220,6 +243,13 @@ pub enum Command {
         /// lines in params.png. They do not enter the fit.
         #[arg(long, value_delimiter = ',', value_name = "PATH=VALUE")]
         truth: Vec<String>,
+        /// Levels: `auto` compares absolute levels where the data are in the
+        /// renders' unit (2-D, collimated emission, `amplitude_unit` = "Pa per 1 Pa
+        /// source pressure", as k-Wave's generator writes), so that a wall's
+        /// impedance is fixed by its echo's strength; `relative` puts each image
+        /// against its own maximum; `absolute` requires the former.
+        #[arg(long, value_enum, default_value_t = Levels::Auto)]
+        levels: Levels,
         /// Continue the fit killed in DIR (its `--out`) from its checkpoint
         /// (`fit.checkpoint.json`, written after every iteration), to the same
         /// results as an uninterrupted run; the other arguments must be the same.
@@ -307,6 +337,15 @@ pub enum Command {
         /// the noise hides are no evidence; off by default: it biases refits.
         #[arg(long)]
         floor: bool,
+        /// Levels: `relative` (the default) puts each image against its own
+        /// maximum; `absolute` (for data in the renders' unit: 2-D, collimated
+        /// emission, `amplitude_unit` = "Pa per 1 Pa source pressure") puts both
+        /// against the measured maximum, which fixes a wall's impedance by its
+        /// echo's strength but lets energy the model lacks pass for a probe
+        /// effect (docs/diagnosis.md, "Absolute levels"); `auto` uses absolute
+        /// where the data allow it.
+        #[arg(long, value_enum, default_value_t = Levels::Relative)]
+        levels: Levels,
         /// Continue the diagnosis killed in DIR (its `--out`) from its checkpoint
         /// (`diagnose.checkpoint.json`: every fit's iterations and the decisions taken on the clock), to the same
         /// results as an uninterrupted run; the other arguments must be the same.

@@ -862,6 +862,33 @@ fn beamforming_past_the_estimate_needs_yes() {
     assert!(t.elapsed().as_secs() < 30, "refused only after work");
 }
 
+/// `usray grad SCENE --reference REFERENCE --params materials.target.roughness
+/// --out OUT EXTRA…`: its output and its `grad.json`, if written.
+fn grad_roughness(
+    scene: &Path,
+    reference: &Path,
+    out: &Path,
+    extra: &[&str],
+) -> (std::process::Output, Option<serde_json::Value>) {
+    let mut args = vec![
+        "grad",
+        scene.to_str().unwrap(),
+        "--reference",
+        reference.to_str().unwrap(),
+        "--params",
+        "materials.target.roughness",
+        "--out",
+        out.to_str().unwrap(),
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    let o = usray(&args);
+    let v = std::fs::read_to_string(out.join("grad.json"))
+        .ok()
+        .map(|t| serde_json::from_str(&t).unwrap());
+    (o, v)
+}
+
 #[test]
 fn data_that_declare_a_2d_simulation_are_compared_with_a_2d_trace() {
     // Channel data whose provenance names a 2-D simulation (what k-Wave's
@@ -875,24 +902,8 @@ fn data_that_declare_a_2d_simulation_are_compared_with_a_2d_trace() {
         serde_json::from_str(&std::fs::read_to_string(&channels).unwrap()).unwrap();
     meta["simulation"] = "k-wave-python 0.6.2, 2-D (x, z); scattered field".into();
     std::fs::write(&channels, meta.to_string()).unwrap();
-    let grad = |scene: &Path, out: &str| {
-        let out = dir.path().join(out);
-        let o = usray(&[
-            "grad",
-            scene.to_str().unwrap(),
-            "--reference",
-            channels.to_str().unwrap(),
-            "--params",
-            "materials.target.roughness",
-            "--out",
-            out.to_str().unwrap(),
-            "--quiet",
-        ]);
-        let v: Option<serde_json::Value> = std::fs::read_to_string(out.join("grad.json"))
-            .ok()
-            .map(|t| serde_json::from_str(&t).unwrap());
-        (o, v)
-    };
+    let grad =
+        |scene: &Path, out: &str| grad_roughness(scene, &channels, &dir.path().join(out), &[]);
     let (o, unset) = grad(&scene, "unset");
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
@@ -917,4 +928,64 @@ fn data_that_declare_a_2d_simulation_are_compared_with_a_2d_trace() {
         err.contains("channels.json") && err.contains("`dimensions` = 4"),
         "{err}"
     );
+}
+
+#[test]
+fn data_in_source_pressure_are_compared_at_absolute_levels() {
+    // A 2-D render is in the unit "Pa per 1 Pa source pressure"; channel data
+    // that declare it are compared at absolute levels by `grad` and `fit`
+    // (`--levels auto`, the default), and the command says so. `relative`
+    // normalises each image to its own maximum; `absolute` is refused, saying
+    // why, where the data are not in that unit.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = tiny_scene(dir.path());
+    let text = std::fs::read_to_string(&scene).unwrap();
+    std::fs::write(&scene, text.replace("seed = 1", "seed = 1\ndimensions = 2")).unwrap();
+    let refdir = render_into(&dir.path().join("ref"), scene.to_str().unwrap(), 1);
+    let channels = refdir.join("channels.json");
+    let mut meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&channels).unwrap()).unwrap();
+    // The model: its target reflects less than the data's.
+    let model = dir.path().join("model.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let z = text
+        .lines()
+        .filter(|l| l.starts_with("impedance_mrayl"))
+        .nth(1)
+        .expect("the target's impedance")
+        .to_string();
+    std::fs::write(&model, text.replacen(&z, "impedance_mrayl = 1.6", 1)).unwrap();
+    let grad = |reference: &Path, levels: &str, out: &str| {
+        let out = dir.path().join(out);
+        let (o, v) = grad_roughness(&model, reference, &out, &["--levels", levels]);
+        (o, v.map(|v| v["loss"].clone()))
+    };
+    // No unit declared: `auto` stays relative, `absolute` is refused by name.
+    let (o, plain) = grad(&channels, "auto", "plain");
+    assert!(o.status.success());
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("absolutely"));
+    let (o, none) = grad(&channels, "absolute", "refused");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && none.is_none());
+    assert!(
+        err.contains("--levels absolute") && err.contains("amplitude_unit"),
+        "{err}"
+    );
+    // Declared: `auto` compares absolutely, and the loss is another one.
+    meta["amplitude_unit"] = "Pa per 1 Pa source pressure".into();
+    std::fs::write(&channels, meta.to_string()).unwrap();
+    let (o, absolute) = grad(&channels, "auto", "absolute");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("levels compared absolutely"),
+        "{err}"
+    );
+    let (o, relative) = grad(&channels, "relative", "relative");
+    assert!(o.status.success());
+    assert_eq!(relative, plain);
+    assert_ne!(absolute, relative);
+    // A B-mode has no unit: `absolute` is refused.
+    let (o, _) = grad(&refdir.join("bmode.npy"), "absolute", "bmode");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("B-mode"), "{err}");
 }

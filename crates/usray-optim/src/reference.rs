@@ -45,6 +45,97 @@ pub fn follow_declared_dimensions(
     )))
 }
 
+/// The amplitude unit of usray's 2-D renders with a collimated emission, as
+/// channel data declare it in `amplitude_unit` (k-Wave's generator in
+/// `../shared/tools/kwave` writes it): pressure per unit pressure on the
+/// emitting elements' faces.
+pub const SOURCE_PRESSURE_UNIT: &str = "Pa per 1 Pa source pressure";
+
+/// Whether an `amplitude_unit` text names [`SOURCE_PRESSURE_UNIT`] (case and
+/// spacing aside).
+fn is_source_pressure_unit(text: &str) -> bool {
+    let words = |t: &str| {
+        t.split_whitespace()
+            .map(str::to_ascii_lowercase)
+            .collect::<Vec<_>>()
+    };
+    words(text) == words(SOURCE_PRESSURE_UNIT)
+}
+
+/// What [`compare_absolute_levels`] did.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AbsoluteLevels {
+    /// `imaging.reference_amplitude` was set; the sentence saying so.
+    Set(String),
+    /// The scene was left as it was; why.
+    NotApplicable(String),
+}
+
+/// Compares absolute levels when the measured data and the model's renders
+/// share a unit: channel data at `measured` that declare `amplitude_unit` =
+/// [`SOURCE_PRESSURE_UNIT`], against a scene traced in 2-D with the collimated
+/// emission (whose channel data carry ray theory's pressure per unit source
+/// pressure; `docs/architecture.md`, "Spreading"). Then
+/// `imaging.reference_amplitude` is set to the maximum envelope of the
+/// measured data beamformed on the scene's grid, so that every image, measured
+/// or simulated, is in dB against that one level: an echo the model renders
+/// 3 dB too strong shows 3 dB too bright, which normalising each image to its
+/// own maximum hides (a wall's impedance is then fixed by its echo's strength,
+/// not only by the echo's share of the image).
+///
+/// Leaves the scene as it is, saying why, for a B-mode reference, data in
+/// another or no declared unit (a scanner's are arbitrary), a scene traced in
+/// 3-D (its renders keep the energy law, not pressure) or with the cosine lobe,
+/// and a scene that sets `imaging.reference_amplitude` itself.
+///
+/// # Errors
+/// Channel data that cannot be read or beamformed on the scene's grid.
+pub fn compare_absolute_levels(
+    scene: &mut Scene,
+    measured: &Path,
+) -> Result<AbsoluteLevels, OptimError> {
+    use usray_transport::scene::{Dimensions, Emission};
+    let not = |why: &str| Ok(AbsoluteLevels::NotApplicable(why.to_string()));
+    let is_channels = measured
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if !is_channels {
+        return not(
+            "a B-mode reference has no amplitude unit; absolute levels need channel data (.json)",
+        );
+    }
+    if scene.acquisition.dimensions != Some(Dimensions::Two) {
+        return not("the scene is traced in 3-D, whose renders keep the energy law, not pressure; absolute levels need `acquisition.dimensions = 2`");
+    }
+    if scene.acquisition.emission != Emission::PlaneWave {
+        return not("the scene emits the paper's cosine lobe, whose renders are not a pressure; absolute levels need `emission = \"plane_wave\"`");
+    }
+    if scene.imaging.reference_amplitude.is_some() {
+        return not("the scene sets `imaging.reference_amplitude` itself");
+    }
+    let ch = read_channels(measured)?;
+    let declared = ch.meta.extra.get("amplitude_unit").and_then(|u| u.as_str());
+    if !declared.is_some_and(is_source_pressure_unit) {
+        return Ok(AbsoluteLevels::NotApplicable(format!(
+            "{} declares its amplitudes in {}, not in the renders' unit (`amplitude_unit` = \"{SOURCE_PRESSURE_UNIT}\")",
+            measured.display(),
+            declared.map_or("no unit".to_string(), |u| format!("\"{u}\"")),
+        )));
+    }
+    let op = BMode::new(&scene.imaging_settings(), &ch.meta, ch.n_samples)?;
+    let mut ws = op.workspace();
+    op.forward(&ch, &mut ws)?;
+    let peak = ws.envelope().iter().copied().fold(0.0, f64::max);
+    if !(peak.is_finite() && peak > 0.0) {
+        return not("the measured image is empty: no level to compare against");
+    }
+    scene.imaging.reference_amplitude = Some(peak);
+    Ok(AbsoluteLevels::Set(format!(
+        "levels compared absolutely: {} declares `amplitude_unit` = \"{SOURCE_PRESSURE_UNIT}\", the unit of the model's 2-D renders, so every image is in dB against the measured image's maximum (`imaging.reference_amplitude` = {peak:.4e}) instead of its own",
+        measured.display()
+    )))
+}
+
 /// Loads `path` as a reference B-mode `[nz, nx]` (row-major) on `scene`'s grid.
 ///
 /// # Errors

@@ -111,6 +111,7 @@ fn report_writes_markdown_and_json_of_every_round() {
             "wall_seconds",
             "dimensions",
             "dimensions_from_data",
+            "reference_amplitude",
             "rounds",
         ]
     );
@@ -118,6 +119,7 @@ fn report_writes_markdown_and_json_of_every_round() {
     // A scene that leaves its dimensions unset, compared with a B-mode: 3-D.
     assert_eq!(v["dimensions"], 3);
     assert!(v["dimensions_from_data"].is_null());
+    assert!(v["reference_amplitude"].is_null());
     // The cylinder is solid, so a wall is a candidate and every model renders
     // at two bounces more than the scene's; the report says so.
     assert_eq!(v["max_bounces"], scene.acquisition.max_bounces + 2);

@@ -146,6 +146,13 @@ impl BMode {
                 settings.dynamic_range_db
             )));
         }
+        if let Some(m) = settings.reference_amplitude {
+            if !(m.is_finite() && m > 0.0) {
+                return Err(SignalError::Invalid(format!(
+                    "imaging.reference_amplitude = {m} (must be > 0)"
+                )));
+            }
+        }
         if meta.probe.n_elements == 0 || meta.transmits.is_empty() || n_samples < 2 {
             return Err(SignalError::Invalid(format!(
                 "channel data shape [{} transmits, {} elements, {n_samples} samples]: need at least 1 transmit, 1 element and 2 samples",
@@ -432,7 +439,10 @@ impl BMode {
                 sc.forward(&ws.env_polar, &mut ws.env);
             }
         }
-        ws.argmax = post::log_compress(&ws.env, &mut ws.db);
+        match self.settings.reference_amplitude {
+            None => ws.argmax = post::log_compress(&ws.env, &mut ws.db),
+            Some(m) => post::log_compress_against(&ws.env, m, &mut ws.db),
+        }
         let mut data = vec![0.0; npix];
         post::clip_dynamic_range(&ws.db, self.settings.dynamic_range_db, &mut data);
         ws.has_forward = true;
@@ -481,7 +491,12 @@ impl BMode {
             d_image,
             &mut ws.db_bar,
         );
-        post::log_compress_vjp(&ws.env, ws.argmax, &ws.db_bar, &mut ws.env_bar);
+        match self.settings.reference_amplitude {
+            None => post::log_compress_vjp(&ws.env, ws.argmax, &ws.db_bar, &mut ws.env_bar),
+            Some(_) => {
+                post::log_compress_against_vjp(&ws.env, &ws.db_bar, &mut ws.env_bar);
+            }
+        }
         let env_bar: &[f64] = match &self.scan {
             None => &ws.env_bar,
             Some(sc) => {

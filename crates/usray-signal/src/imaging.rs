@@ -71,6 +71,11 @@ pub struct ImagingSettings {
     /// Beamforming grid: Cartesian, or a sector scan-converted to the Cartesian
     /// pixels (default: by probe kind).
     pub grid: GridKind,
+    /// The envelope shown at 0 dB, in the unit of the channel data's samples
+    /// (`None`: each image's own maximum). Images compressed against one
+    /// reference keep their absolute levels ([`crate::post`], "A fixed
+    /// reference").
+    pub reference_amplitude: Option<f64>,
 }
 
 impl Default for ImagingSettings {
@@ -87,6 +92,7 @@ impl Default for ImagingSettings {
             filter_order: 5,
             depth_gain_db_per_cm: 0.0,
             grid: GridKind::Auto,
+            reference_amplitude: None,
         }
     }
 }

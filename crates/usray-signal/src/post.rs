@@ -13,6 +13,13 @@
 //! gradient where `0 < (dB + D)/D < 1` strictly and blocks it outside (the
 //! one-sided derivative at the boundary is taken as 0). The envelope's derivative
 //! is `∂|u|/∂u = u/|u|` (0 where `u = 0`).
+//!
+//! **A fixed reference.** Data in a calibrated unit can be compressed against a
+//! given envelope `M₀` instead of their own maximum ([`log_compress_against`]):
+//! `dB_p = 20·log10(E_p / M₀)`, whose gradient has no maximum term,
+//! `∂dB_p/∂E_q = (20/ln 10) δ_pq/E_p`. Two images compressed against the same
+//! `M₀` keep their absolute levels: an echo twice as strong is 6 dB brighter,
+//! where normalising each to its own maximum would show both at 0 dB.
 
 use rustfft::num_complex::Complex64;
 
@@ -64,15 +71,30 @@ pub fn log_compress(env: &[f64], db: &mut [f64]) -> usize {
 
 /// VJP of [`log_compress`] with the exact gradient of the maximum (module docs).
 pub fn log_compress_vjp(env: &[f64], argmax: usize, db_bar: &[f64], env_bar: &mut [f64]) {
+    let total = log_compress_against_vjp(env, db_bar, env_bar);
     let m = env[argmax];
+    if m > 0.0 {
+        env_bar[argmax] -= K * total / m;
+    }
+}
+
+/// `dB_p = 20 log10(E_p / reference)` against a fixed `reference > 0` (module
+/// docs, "A fixed reference"). Zero envelope gives `−∞`.
+pub fn log_compress_against(env: &[f64], reference: f64, db: &mut [f64]) {
+    for (d, &e) in db.iter_mut().zip(env) {
+        *d = 20.0 * (e / reference).log10();
+    }
+}
+
+/// VJP of [`log_compress_against`] (the reference is a constant); returns
+/// `Σ_p dB̄_p`, the part [`log_compress_vjp`] adds the maximum's term with.
+pub fn log_compress_against_vjp(env: &[f64], db_bar: &[f64], env_bar: &mut [f64]) -> f64 {
     let mut total = 0.0;
     for ((eb, &e), &g) in env_bar.iter_mut().zip(env).zip(db_bar) {
         *eb = if e > 0.0 && g != 0.0 { K * g / e } else { 0.0 };
         total += g;
     }
-    if m > 0.0 {
-        env_bar[argmax] -= K * total / m;
-    }
+    total
 }
 
 /// `I = clamp((dB + D)/D, 0, 1)` (grey level in `[0, 1]`; `−∞` → 0).

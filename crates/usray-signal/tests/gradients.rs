@@ -105,14 +105,26 @@ fn check_b(demod: Demod, fnum: f64, gain: f64) {
     check_b_on(synthetic(2, 5), demod, fnum, gain, 1e-5);
 }
 
-/// FD check of the whole `B` at `ch`, step `h_rel` × the largest |sample|.
-fn check_b_on(ch: ChannelData, demod: Demod, fnum: f64, gain: f64, h_rel: f64) {
+/// The imaging settings of the FD checks: a dynamic range wide enough that no
+/// pixel clips.
+fn settings(demod: Demod, fnum: f64, gain: f64) -> ImagingSettings {
     let mut s = ImagingSettings::new([-1e-3, 1e-3], [2.5e-3, 5.5e-3], 0.25e-3);
     s.f_number = fnum;
     s.demod = demod;
     s.dynamic_range_db = 300.0;
     s.depth_gain_db_per_cm = gain;
-    let b = BMode::new(&s, &ch.meta, ch.n_samples).unwrap();
+    s
+}
+
+/// FD check of the whole `B` at `ch`, step `h_rel` × the largest |sample|.
+fn check_b_on(ch: ChannelData, demod: Demod, fnum: f64, gain: f64, h_rel: f64) {
+    check_b_with(ch, &settings(demod, fnum, gain), h_rel);
+}
+
+/// [`check_b_on`] with any settings.
+fn check_b_with(ch: ChannelData, s: &ImagingSettings, h_rel: f64) {
+    let (demod, fnum, gain) = (s.demod, s.f_number, s.depth_gain_db_per_cm);
+    let b = BMode::new(s, &ch.meta, ch.n_samples).unwrap();
     let mut ws = b.workspace();
     let img = b.forward(&ch, &mut ws).unwrap();
     let q = post::argmax(ws.envelope());
@@ -150,6 +162,52 @@ fn check_b_on(ch: ChannelData, demod: Demod, fnum: f64, gain: f64, h_rel: f64) {
         rel(fd, an)
     );
     assert!(rel(fd, an) < 1e-5, "fd {fd} vjp {an}");
+}
+
+/// Against a fixed reference (`reference_amplitude`) the image keeps its
+/// absolute level: data twice as strong are `20 log10 2` dB brighter in every
+/// pixel (against its own maximum the image would not change), and the VJP,
+/// which then has no maximum term, matches finite differences.
+#[test]
+fn fixed_reference_keeps_absolute_levels_and_its_vjp_matches_fd() {
+    let ch = synthetic(2, 5);
+    let mut s = settings(Demod::Iq, 1.0, 0.0);
+    let image_of = |s: &ImagingSettings, ch: &ChannelData| {
+        let b = BMode::new(s, &ch.meta, ch.n_samples).unwrap();
+        let mut ws = b.workspace();
+        let img = b.forward(ch, &mut ws).unwrap();
+        (
+            img.data,
+            post::argmax(ws.envelope()),
+            ws.envelope().to_vec(),
+        )
+    };
+    let (_, q, env) = image_of(&s, &ch);
+    s.reference_amplitude = Some(4.0 * env[q]);
+    let mut twice = ch.clone();
+    twice.samples.iter_mut().for_each(|v| *v *= 2.0);
+    let (a, _, _) = image_of(&s, &ch);
+    let (b, _, _) = image_of(&s, &twice);
+    let step = 20.0 * 2f64.log10() / s.dynamic_range_db;
+    for (p, (x, y)) in a.iter().zip(&b).enumerate() {
+        assert!(
+            (y - x - step).abs() < 1e-9,
+            "pixel {p}: {x} → {y}, expected +{step}"
+        );
+    }
+    // Its own maximum at 0 dB: the image does not change.
+    s.reference_amplitude = None;
+    let (a, _, _) = image_of(&s, &ch);
+    let (b, _, _) = image_of(&s, &twice);
+    assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-12));
+    s.reference_amplitude = Some(4.0 * env[q]);
+    check_b_with(ch, &s, 1e-5);
+    // A reference that is not a positive amplitude is refused, naming the key.
+    s.reference_amplitude = Some(0.0);
+    let e = BMode::new(&s, &synthetic(1, 5).meta, 100)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("reference_amplitude"), "{e}");
 }
 
 #[test]

@@ -407,18 +407,36 @@ pub fn progress_bar(quiet: bool, len: u64, prefix: &str) -> indicatif::ProgressB
 }
 
 /// The scene at `scene_path` for a comparison with the measured data at
-/// `reference`, traced in the dimensions those data declare when the scene
-/// leaves them unset ([`usray_optim::follow_declared_dimensions`]); the
-/// sentence saying so is printed to standard error and returned for the
-/// report.
+/// `reference`: traced in the dimensions those data declare when the scene
+/// leaves them unset ([`usray_optim::follow_declared_dimensions`]), and at
+/// absolute levels as `levels` asks ([`usray_optim::compare_absolute_levels`]).
+/// Each sentence saying what was done is printed to standard error; the
+/// dimensions' is returned for the report (which reads the levels from the
+/// scene).
+///
+/// # Errors
+/// `--levels absolute` where the data are not in the renders' unit (saying
+/// why), and what loading the scene or reading the data refuses.
 pub fn load_scene_for(
     scene_path: &std::path::Path,
     reference: &std::path::Path,
+    levels: crate::cli::Levels,
 ) -> Result<(Scene, Option<String>)> {
+    use crate::cli::Levels;
+    use usray_optim::AbsoluteLevels;
     let mut scene = Scene::load(scene_path)?;
     let note = usray_optim::follow_declared_dimensions(&mut scene, reference)?;
     if let Some(note) = &note {
         eprintln!("usray: {note}");
+    }
+    if levels != Levels::Relative {
+        match usray_optim::compare_absolute_levels(&mut scene, reference)? {
+            AbsoluteLevels::Set(sentence) => eprintln!("usray: {sentence}"),
+            AbsoluteLevels::NotApplicable(why) if levels == Levels::Absolute => {
+                anyhow::bail!("--levels absolute: {why}")
+            }
+            AbsoluteLevels::NotApplicable(_) => {}
+        }
     }
     Ok((scene, note))
 }
@@ -429,10 +447,11 @@ pub fn build_objective(
     scene_path: &std::path::Path,
     reference: &std::path::Path,
     params: &[String],
+    levels: crate::cli::Levels,
     sampling: &crate::cli::Sampling,
     threads: usize,
 ) -> Result<Objective> {
-    let (scene, _) = load_scene_for(scene_path, reference)?;
+    let (scene, _) = load_scene_for(scene_path, reference, levels)?;
     let specs = parse_params(&scene, params)?;
     let opts = sampling.render_options(threads)?;
     let reference = usray_optim::load_reference(reference, &scene)?;

@@ -36,6 +36,8 @@ pub struct DiagnoseArgs {
     pub smoothing_wavelengths: f64,
     /// Floor the images at the measurement's noise level.
     pub noise_floor: bool,
+    /// `--levels`.
+    pub levels: crate::cli::Levels,
     /// Continue from the checkpoint in `--out`.
     pub resume: bool,
 }
@@ -45,7 +47,7 @@ const CHECKPOINT: &str = "diagnose.checkpoint.json";
 
 /// Runs the diagnosis and writes `diagnosis.json`, `report.md` and the images.
 pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Common) -> Result<()> {
-    let (scene, dimensions_note) = super::calib::load_scene_for(scene_path, measured)?;
+    let (scene, dimensions_note) = super::calib::load_scene_for(scene_path, measured, args.levels)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
     anyhow::ensure!(args.rounds >= 1, "--rounds must be at least 1");
     anyhow::ensure!(

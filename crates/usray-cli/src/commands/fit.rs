@@ -1,7 +1,7 @@
 //! `usray fit SCENE --reference REF --params … [--iters N]`.
 
 use super::calib::{build_objective, progress_bar, write_fit_outputs};
-use crate::cli::{Common, Sampling};
+use crate::cli::{Common, Levels, Sampling};
 use crate::output::OutDir;
 use anyhow::{Context, Result};
 use std::path::Path;
@@ -20,6 +20,8 @@ pub struct FitArgs {
     pub paired: bool,
     /// `--truth` entries, `PATH=VALUE`.
     pub truth: Vec<String>,
+    /// `--levels`.
+    pub levels: Levels,
     /// Rays, seed and sampler.
     pub sampling: Sampling,
     /// Continue from the checkpoint in `--out`.
@@ -37,7 +39,14 @@ pub fn run(
     args: &FitArgs,
     common: &Common,
 ) -> Result<()> {
-    let mut objective = build_objective(scene, reference, params, &args.sampling, common.threads)?;
+    let mut objective = build_objective(
+        scene,
+        reference,
+        params,
+        args.levels,
+        &args.sampling,
+        common.threads,
+    )?;
     let truth = parse_truth(&objective.specs, &args.truth)?;
     anyhow::ensure!(args.iters >= 1, "--iters must be at least 1");
     crate::work::confirm_work(

@@ -1,7 +1,7 @@
 //! `usray grad SCENE --reference REF --params P1,P2 [--fd-sweep]`: `grad.json`.
 
 use super::calib::{build_objective, grad_json, progress_bar, write_sweep_plots};
-use crate::cli::{Common, Sampling};
+use crate::cli::{Common, Levels, Sampling};
 use crate::output::{spinner, OutDir};
 use anyhow::Result;
 use std::path::Path;
@@ -13,10 +13,11 @@ pub fn run(
     reference: &Path,
     params: &[String],
     fd_sweep: bool,
+    levels: Levels,
     sampling: &Sampling,
     common: &Common,
 ) -> Result<()> {
-    let objective = build_objective(scene, reference, params, sampling, common.threads)?;
+    let objective = build_objective(scene, reference, params, levels, sampling, common.threads)?;
     let at = objective.initial_physical();
     let sweep_renders = if fd_sweep {
         objective

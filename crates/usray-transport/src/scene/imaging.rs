@@ -16,6 +16,7 @@ impl Scene {
             f_number: im.f_number,
             dynamic_range_db: im.dynamic_range_db,
             sound_speed_m_s: Some(self.imaging_sound_speed()),
+            reference_amplitude: im.reference_amplitude,
             ..ImagingSettings::new(im.x_range_m, im.z_range_m, im.pixel_m)
         }
     }

@@ -350,6 +350,12 @@ pub struct Imaging {
     /// Speed the beamformer assumes, m/s (default: the medium's).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sound_speed_m_s: Option<f64>,
+    /// The envelope shown at 0 dB, in the channel data's unit (default: each
+    /// image's own maximum). `usray diagnose` sets it to the measured image's
+    /// maximum when the data are in the renders' unit, so that model and
+    /// measurement are compared at their absolute levels.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_amplitude: Option<f64>,
 }
 
 impl Default for Imaging {
@@ -364,6 +370,7 @@ impl Default for Imaging {
             f_number: d.f_number,
             dynamic_range_db: d.dynamic_range_db,
             sound_speed_m_s: d.sound_speed_m_s,
+            reference_amplitude: d.reference_amplitude,
         }
     }
 }
@@ -630,6 +637,9 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
     )?;
     if let Some(c) = im.sound_speed_m_s {
         within("imaging.sound_speed_m_s", c, limits::SOUND_SPEED_M_S)?;
+    }
+    if let Some(m) = im.reference_amplitude {
+        pos("imaging.reference_amplitude", m)?;
     }
     if im.x_range_m[1] <= im.x_range_m[0] {
         return err("imaging.x_range_m", "expected [min, max] with min < max");
