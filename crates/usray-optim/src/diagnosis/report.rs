@@ -278,7 +278,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         writeln!(r, "Every model was traced in 2-D (`acquisition.dimensions = 2`): everything stays in the `xz` plane, as in data simulated in 2-D.\n")?;
     }
     if let Some(m) = base.imaging.reference_amplitude {
-        writeln!(r, "Levels are absolute: every image, measured and simulated, is in dB against one envelope, `imaging.reference_amplitude` = {m:.4e}, not each against its own maximum. `usray diagnose` sets it to the measured image's maximum when the data declare `amplitude_unit` = \"{}\", the unit of the model's 2-D renders; an echo the model renders too strong then shows too bright.\n", crate::SOURCE_PRESSURE_UNIT)?;
+        writeln!(r, "Levels are absolute: every image, measured and simulated, is in dB against one envelope, `imaging.reference_amplitude` = {m:.4e}, not each against its own maximum (`--levels absolute` or `auto` sets it to the measured image's maximum for data that declare `amplitude_unit` = \"{}\", the unit of the model's 2-D renders): an echo the model renders too strong shows too bright.\n", crate::SOURCE_PRESSURE_UNIT)?;
     }
     if d.max_bounces > base.acquisition.max_bounces {
         writeln!(r, "Every model was rendered at **{} bounces**, the scene's {} and {} more: a `wall_thickness` candidate hollows a solid cylinder, and a path then meets more surfaces before the far wall (at the scene's limit the hollowed cylinder would lose its far wall, and a true wall would look worse than none).\n", d.max_bounces, base.acquisition.max_bounces, d.max_bounces - base.acquisition.max_bounces)?;
