@@ -196,11 +196,7 @@ pub enum Command {
         /// parameter's range down to 1e-9 of it) and plot FD vs AD.
         #[arg(long)]
         fd_sweep: bool,
-        /// Levels: `auto` compares absolute levels where the data are in the
-        /// renders' unit (2-D, collimated emission, `amplitude_unit` = "Pa per 1 Pa
-        /// source pressure", as k-Wave's generator writes), so that a wall's
-        /// impedance is fixed by its echo's strength; `relative` puts each image
-        /// against its own maximum; `absolute` requires the former.
+        /// How model and data share a dB scale (below; CONTRACT §2, `amplitude_unit`).
         #[arg(long, value_enum, default_value_t = Levels::Auto)]
         levels: Levels,
         /// Rays, seed and sampler.
@@ -243,11 +239,7 @@ pub enum Command {
         /// lines in params.png. They do not enter the fit.
         #[arg(long, value_delimiter = ',', value_name = "PATH=VALUE")]
         truth: Vec<String>,
-        /// Levels: `auto` compares absolute levels where the data are in the
-        /// renders' unit (2-D, collimated emission, `amplitude_unit` = "Pa per 1 Pa
-        /// source pressure", as k-Wave's generator writes), so that a wall's
-        /// impedance is fixed by its echo's strength; `relative` puts each image
-        /// against its own maximum; `absolute` requires the former.
+        /// How model and data share a dB scale (below; CONTRACT §2, `amplitude_unit`).
         #[arg(long, value_enum, default_value_t = Levels::Auto)]
         levels: Levels,
         /// Continue the fit killed in DIR (its `--out`) from its checkpoint

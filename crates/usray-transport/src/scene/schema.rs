@@ -351,9 +351,10 @@ pub struct Imaging {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sound_speed_m_s: Option<f64>,
     /// The envelope shown at 0 dB, in the channel data's unit (default: each
-    /// image's own maximum). `usray diagnose` sets it to the measured image's
-    /// maximum when the data are in the renders' unit, so that model and
-    /// measurement are compared at their absolute levels.
+    /// image's own maximum). `fit` and `grad` (and `diagnose --levels
+    /// absolute`) set it to the measured image's maximum when the data are in
+    /// the renders' unit, so that model and measurement are compared at their
+    /// absolute levels.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference_amplitude: Option<f64>,
 }
