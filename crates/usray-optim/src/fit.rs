@@ -66,6 +66,29 @@ impl Default for FitOptions {
     }
 }
 
+impl FitOptions {
+    /// The learning rate `key` starts a fit with: its own
+    /// ([`FitOptions::lr_overrides`], the first that names it) or its group's.
+    ///
+    /// ```
+    /// use usray_optim::FitOptions;
+    /// use usray_transport::{Field, ParamKey};
+    /// let strength = ParamKey::material("m", Field::ScattererStrength);
+    /// let mut opts = FitOptions::default();
+    /// assert_eq!(opts.learning_rate_of(&strength), opts.lr_material);
+    /// opts.lr_overrides = vec![(strength.clone(), 0.001), (strength.clone(), 0.5)];
+    /// assert_eq!(opts.learning_rate_of(&strength), 0.001);
+    /// ```
+    pub fn learning_rate_of(&self, key: &ParamKey) -> f64 {
+        match self.lr_overrides.iter().find(|(p, _)| p == key) {
+            Some((_, lr)) => *lr,
+            None => {
+                [self.lr_material, self.lr_geometry, self.lr_acquisition][group_index(key.group())]
+            }
+        }
+    }
+}
+
 /// One iteration of a fit.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FitStep {

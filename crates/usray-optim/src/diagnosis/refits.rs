@@ -94,17 +94,40 @@ fn refit_candidate(
         .setup
         .objective(on, measured, refit_specs, &stage.render_s)?;
     let x0 = obj.initial_physical();
+    // The screen's best point may lie just past the loss's minimum along the
+    // effect (a speckle strength of 0.02 whose loss is lowest at 0.01): there
+    // the loss also falls towards the null, whatever the screen's onset said,
+    // and a floored first step would land on the null and stay (the effect
+    // parameter is the refit's first). One gradient at the start tells; it is
+    // taken only where the step would otherwise keep its floor.
+    let toward_null = toward_null
+        || (refit_learning_rate(c, start, false) > refit_learning_rate(c, start, true)
+            && obj.value_and_gradient(&x0)?.gradient[0] > 0.0);
     let r = fit_journaled(
         &mut obj,
         &x0,
         &FitOptions {
             iters: opts.refit_iters,
-            lr_overrides: vec![(c.key.clone(), refit_learning_rate(c, start, toward_null))],
+            // The candidate's own rate first (a fit takes the first match),
+            // then any the options set (a later round's named effect).
+            lr_overrides: std::iter::once((
+                c.key.clone(),
+                refit_learning_rate(c, start, toward_null),
+            ))
+            .chain(opts.fit.lr_overrides.iter().cloned())
+            .collect(),
             ..opts.fit.clone()
         },
         &opts.journal,
         &format!("refit {} ({})", c.effect, c.key),
-        |_| {},
+        |st| {
+            if std::env::var_os("USRAY_TRACE").is_some() {
+                eprintln!(
+                    "TRACE refit {} it {} loss {:.5} params {:?}",
+                    c.key, st.iter, st.loss, st.params
+                );
+            }
+        },
     )?;
     let fitted = obj.scene_at(&r.final_params)?;
     let after = held_out(&fitted, held_data, &stage.renders_held, &stage.setup)?;
@@ -307,13 +330,22 @@ pub(crate) fn refit_leading(
             excess_spatial_std(&baseline.blocks, &r.after_held.blocks, held_loss);
         e.gap_explained =
             (held_loss > noise_loss).then(|| (held_loss - after_loss) / (held_loss - noise_loss));
-        e.held_out_losses = r.after_held.per_seed;
+        e.held_out_losses = r.after_held.per_seed.clone();
         e.params = r.params.into_iter().collect();
         e.params_std = r.params_std.into_iter().collect();
         e.detection_limit = c
             .null
             .and(e.params_std.get(&e.path).copied().flatten())
             .map(|spread| DETECTION_LIMIT_SPREADS * spread);
+        if e.near_null_bound() {
+            match absence_cost(c, &r.scene, &r.after_held, stage, held_data) {
+                Ok((cost, cost_std)) => {
+                    e.absence_cost = Some(cost);
+                    e.absence_cost_std = cost_std;
+                }
+                Err(err) => progress(&format!("{}: absence test failed: {err}", c.key)),
+            }
+        }
         refits.push(Refitted {
             candidate: k,
             image_s: r.image_s,
@@ -321,6 +353,35 @@ pub(crate) fn refit_leading(
         });
     }
     (refits, spread_s)
+}
+
+/// [`EffectResult::absence_cost`] and its standard error: the refitted
+/// `scene` with `c`'s effect parameter alone set back to its null, on the
+/// held-out seeds, against the refit's own held-out losses `after`.
+fn absence_cost(
+    c: &Candidate,
+    scene: &Scene,
+    after: &HeldOutLosses,
+    stage: &Stage,
+    held_data: &[f64],
+) -> Result<(f64, Option<f64>), OptimError> {
+    let null = c
+        .null
+        .ok_or_else(|| OptimError::Diagnosis(format!("{} has no null", c.key)))?;
+    let off = c.switched_on(scene, null)?;
+    let evals = held_out(&off, held_data, &stage.renders_held, &stage.setup)?;
+    let without = held_out_losses(&stage.setup, held_data, &evals, block_px(&stage.scene));
+    let (cost, seeds_std) = mean_and_se(&relative_differences(
+        &without.per_seed,
+        &after.per_seed,
+        stage.held_loss,
+    ));
+    let spatial_std = excess_spatial_std(&without.blocks, &after.blocks, stage.held_loss);
+    let std = match (seeds_std, spatial_std) {
+        (Some(a), Some(b)) => Some(a.max(b)),
+        (a, b) => a.or(b),
+    };
+    Ok((cost, std))
 }
 
 #[cfg(test)]

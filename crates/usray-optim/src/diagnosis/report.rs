@@ -367,6 +367,24 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             failed.join("; ")
         )?;
     }
+    for e in &d.effects {
+        let (Some(cost), Some(v)) = (e.absence_cost, e.params.get(&e.path)) else {
+            continue;
+        };
+        let cost_std = e.absence_cost_std.unwrap_or(f64::NAN);
+        let reading = if e.at_range_bound() {
+            "not told from its absence: pressed against its null, it cannot be named"
+        } else {
+            "the effect is there, however small its value: it counts as inside its range"
+        };
+        writeln!(
+            r,
+            "\n`{}` refitted to {} (`{}`), within 1% of its range from its null and within its limit of detection; switched back to its null, every other refitted value kept, the held-out loss rises by {cost:+.3} ± {cost_std:.3} of the calibrated loss: {reading}.",
+            e.effect,
+            short(*v),
+            e.path
+        )?;
+    }
     if rounds.len() > 1 || names_an_effect(&d.verdict.effect) {
         writeln!(r, "\n## Compound gap\n\nEach named effect is switched on at its refitted value, its parameter joins the calibration, and the diagnosis runs again ({} round(s) of at most the `--rounds` asked).\n", rounds.len())?;
         writeln!(r, "| round | verdict | found | excess over the null refit | gap explained | what stays (held-out loss) | noise share at rays |\n|---|---|---|---|---|---|---|")?;

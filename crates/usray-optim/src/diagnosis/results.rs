@@ -112,6 +112,21 @@ pub struct EffectResult {
     /// noise only (absent when not refitted, without a null, or when the
     /// parameter is not determined).
     pub detection_limit: Option<f64>,
+    /// Where the refit ended within 1% of the range's width from the bound
+    /// that is the effect's null, without clearing its limit of detection
+    /// ([`EffectResult::detection_limit`]): how much the held-out loss rises
+    /// when the effect parameter alone is set back to its null, every other
+    /// refitted value kept, `(L_null − L_refit)/calibrated.loss_held_out` averaged over the
+    /// held-out seeds. It tells an effect whose strength is small in its unit
+    /// but plain in the image (a speckle strength of 0.005 whose speckle fills
+    /// an object: the B-mode is logarithmic in it) from one that is absent
+    /// (absent elsewhere).
+    pub absence_cost: Option<f64>,
+    /// Standard error of [`EffectResult::absence_cost`]: the larger of its
+    /// standard errors over the held-out seeds and over blocks of the image
+    /// (as [`EffectResult::excess_std`] and
+    /// [`EffectResult::excess_spatial_std`]).
+    pub absence_cost_std: Option<f64>,
     /// In a later round of a compound diagnosis ([`super::diagnose_compound`]):
     /// the effect's score in the first round against the score an effect that
     /// simply adds to the first round's would have had there,
@@ -150,7 +165,7 @@ impl EffectResult {
     ///     loss_onset: 1e-2, loss_after: Some(7e-3), shrink: Some(0.3),
     ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01), excess_spatial_std: None,
     ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
-    ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, additivity: None,
+    ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, absence_cost: None, absence_cost_std: None, additivity: None,
     ///     failed: None,
     /// };
     /// e.params.insert(e.path.clone(), 9.999);
@@ -161,8 +176,11 @@ impl EffectResult {
     /// assert!(e.at_range_bound()); // …without a limit of detection
     /// e.detection_limit = Some(0.02); // beyond it: an estimate
     /// assert!(!e.at_range_bound());
-    /// e.detection_limit = Some(0.08); // within it: at the bound
+    /// e.detection_limit = Some(0.08); // within it: at the bound…
     /// assert!(e.at_range_bound());
+    /// e.absence_cost = Some(0.4); // …unless switching it off costs
+    /// e.absence_cost_std = Some(0.05); // eight standard errors
+    /// assert!(!e.at_range_bound());
     /// ```
     pub fn at_range_bound(&self) -> bool {
         let [lo, hi] = self.range;
@@ -170,9 +188,36 @@ impl EffectResult {
         let Some(&v) = self.params.get(&self.path) else {
             return false;
         };
-        let detected = |null: f64| self.detection_limit.is_some_and(|l| (v - null).abs() > l);
-        let pressed = |bound: f64| self.null != Some(bound) || !detected(bound);
+        let pressed = |bound: f64| self.null != Some(bound) || !self.detected_from(bound, v);
         (v <= lo + margin && pressed(lo)) || (v >= hi - margin && pressed(hi))
+    }
+
+    /// Whether the refitted value `v` is told from the effect's absence at
+    /// `null`: beyond its limit of detection, or with an
+    /// [`EffectResult::absence_cost`] of at least three of its standard errors
+    /// (the limit of detection's convention, [`EffectResult::detection_limit`]).
+    fn detected_from(&self, null: f64, v: f64) -> bool {
+        let beyond_limit = self.detection_limit.is_some_and(|l| (v - null).abs() > l);
+        let costly = match (self.absence_cost, self.absence_cost_std) {
+            (Some(cost), Some(std)) => cost > 3.0 * std,
+            _ => false,
+        };
+        beyond_limit || costly
+    }
+
+    /// Whether the refit ended within 1% of the range's width from a bound
+    /// that is the effect's null without clearing its limit of detection:
+    /// where [`EffectResult::absence_cost`] is measured.
+    pub fn near_null_bound(&self) -> bool {
+        let [lo, hi] = self.range;
+        let margin = 0.01 * (hi - lo);
+        match (self.params.get(&self.path), self.null) {
+            (Some(&v), Some(null)) if null == lo || null == hi => {
+                (v - null).abs() <= margin
+                    && !self.detection_limit.is_some_and(|l| (v - null).abs() > l)
+            }
+            _ => false,
+        }
     }
 
     /// How far the refit moved the effect parameter from its null, in its
@@ -193,7 +238,7 @@ impl EffectResult {
     ///     held_out_losses: vec![9e-3],
     ///     params: BTreeMap::from([(path.clone(), 1.5)]),
     ///     params_std: BTreeMap::from([(path, Some(0.75))]),
-    ///     detection_limit: Some(2.25), additivity: None, failed: None,
+    ///     detection_limit: Some(2.25), absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
     /// };
     /// // Found +1.5 dB/cm at a spread of 0.75: two spreads from no gain.
     /// assert_eq!(e.null_z(), Some(2.0));

@@ -89,7 +89,10 @@ pub fn diagnose(
 
     // Step 3: score every candidate by one value + gradient at its onset.
     let t = Instant::now();
+    // A parameter being calibrated (in a later round, the effect an earlier
+    // one named) is no candidate.
     let mut candidates = catalogue(&stage.scene);
+    candidates.retain(|c| !calibrated_keys.contains(&c.key));
     candidates.extend(parameter_candidates(&stage.scene, &calibrated_keys));
     let Screening {
         mut effects,
@@ -267,10 +270,26 @@ pub fn diagnose_compound(
             .keys()
             .map(|p| Ok(FreeParam::new(next_scene.key(p)?)))
             .collect::<Result<Vec<_>, OptimError>>()?;
+        let named_key = next_scene.key(path)?;
         free.push(FreeParam {
-            key: next_scene.key(path)?,
+            key: named_key.clone(),
             range: Some((named.range[0], named.range[1])),
         });
+        // An effect found close to its null (a faint speckle) is calibrated
+        // with steps of at most a quarter of its distance from it, so that no
+        // first step lands on the null, where the clip map's derivative is
+        // zero and the effect could not come back (as in its refit,
+        // `refits::refit_learning_rate`).
+        let mut fit = opts.fit.clone();
+        if let (Some(null), Some(&found)) = (named.null, named.params.get(path)) {
+            let width = named.range[1] - named.range[0];
+            let at_bound = null == named.range[0] || null == named.range[1];
+            if at_bound && width > 0.0 {
+                let quarter = 0.25 * (found - null).abs() / width;
+                let lr = quarter.min(fit.learning_rate_of(&named_key));
+                fit.lr_overrides.insert(0, (named_key, lr));
+            }
+        }
         let elapsed = started.elapsed().as_secs_f64();
         // Whether to go on and the budget left, decided on the wall clock and so
         // kept for a resumed run.
@@ -298,6 +317,7 @@ pub fn diagnose_compound(
                 loss_held_out: first.calibrated.loss_held_out,
             }),
             free_params: free,
+            fit,
             budget_s,
             journal: opts.journal.scoped(&format!("round {round_no}")),
             render: RenderOptions {

@@ -115,7 +115,7 @@ pub struct Verdict {
 ///     shrink: Some(shrink), shrink_std: Some(0.01), excess: Some(excess),
 ///     excess_std: Some(0.01), excess_spatial_std: Some(spatial), gap_explained: Some(0.5),
 ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
-///     detection_limit: None, additivity: None, failed: None,
+///     detection_limit: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
 /// };
 /// let rule = VerdictRule::default();
 /// // Shrinks 0.80 and 0.78 tie; the first has the higher score.
