@@ -120,14 +120,7 @@ fn refit_candidate(
         },
         &opts.journal,
         &format!("refit {} ({})", c.effect, c.key),
-        |st| {
-            if std::env::var_os("USRAY_TRACE").is_some() {
-                eprintln!(
-                    "TRACE refit {} it {} loss {:.5} params {:?}",
-                    c.key, st.iter, st.loss, st.params
-                );
-            }
-        },
+        |_| {},
     )?;
     let fitted = obj.scene_at(&r.final_params)?;
     let after = held_out(&fitted, held_data, &stage.renders_held, &stage.setup)?;
