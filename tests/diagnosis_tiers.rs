@@ -14,8 +14,8 @@
 use std::path::Path;
 use usray::optim::blind::{measured_image, BlindOptions, Draw};
 use usray::optim::{
-    catalogue, diagnose, diagnose_compound, diagnosis_bounces, follow_declared_dimensions,
-    load_reference, mean_and_se, names_an_effect, DiagnoseOptions, Diagnosis, Objective,
+    catalogue, diagnose, diagnosis_bounces, follow_declared_dimensions, load_reference,
+    mean_and_se, names_an_effect, DiagnoseOptions, Diagnosis, Objective,
 };
 use usray::transport::scene::Sampler;
 use usray::transport::{RenderOptions, Scene};
@@ -203,11 +203,13 @@ fn tier_a_sphere_without_an_effect_names_none() {
 
 /// Two effects at once (tier (a)'s compound case `a2_pulse_scatter`): the
 /// sphere filled with speckle and imaged with a pulse of 4.5 cycles for the
-/// model's 3. The first round must name the speckle; its refit ends close to
-/// the strength's null (the calibration has made the sphere's surface faint,
-/// so a faint speckle matches), where only the cost of switching it off tells
-/// it from its absence. The second round must not name it again: its strength
-/// is calibrated there, no longer a candidate.
+/// model's 3. The first round must name the speckle, which the calibration
+/// (a faint, rough shell for the sphere) leaves matched by a faint speckle:
+/// its refit starts from the screen's best point, past the loss's minimum
+/// towards the null, and must not step onto the null and stay there. At this
+/// size it refits to 0.029, +0.54 over the null refit; the full-size case
+/// (`docs/diagnosis.md`, "Compound cases") to 0.0046, named by its
+/// `absence_cost`.
 #[test]
 fn tier_a_compound_speckle_and_pulse_names_the_speckle_first() {
     let text = include_str!("../bench/tier_a/a2_sphere.toml");
@@ -219,46 +221,14 @@ fn tier_a_compound_speckle_and_pulse_names_the_speckle_first() {
         ),
         "a2_pulse_scatter.toml",
     );
-    let _serial = ONE_AT_A_TIME
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner);
-    let measured = measured_unlike(truth, 90_014);
-    let opts = DiagnoseOptions {
-        calibration_iters: 20,
-        refit_iters: 20,
-        confirm_top: 1,
-        render: RenderOptions {
-            rays_per_element: Some(MODEL_RAYS),
-            ..Default::default()
-        },
-        ..Default::default()
-    };
-    let rounds = diagnose_compound(&base, &measured, &opts, 2, |_| {}).unwrap();
-    for (i, d) in rounds.iter().enumerate() {
-        eprintln!(
-            "round {}: verdict {}; {:?}",
-            i + 1,
-            d.verdict.effect,
-            d.effects
-                .iter()
-                .filter(|e| e.shrink.is_some())
-                .map(|e| (
-                    e.path.as_str(),
-                    e.params.get(&e.path),
-                    e.excess,
-                    e.excess_spatial_std,
-                    e.absence_cost,
-                    e.absence_cost_std
-                ))
-                .collect::<Vec<_>>()
-        );
-    }
-    assert_eq!(rounds[0].verdict.effect, "volume_scattering");
-    let path = rounds[0].verdict.path.clone().unwrap();
-    assert!(rounds
+    let d = diagnose_unlike(&base, truth, 90_014);
+    assert_eq!(d.verdict.effect, "volume_scattering");
+    let named = d
+        .effects
         .iter()
-        .skip(1)
-        .all(|d| d.effects.iter().all(|e| e.path != path)));
+        .find(|e| Some(&e.path) == d.verdict.path.as_ref());
+    let strength = named.unwrap().params["materials.target.scatterer_strength"];
+    assert!(strength > 0.0, "speckle refitted to {strength}");
 }
 
 /// The 5 mm k-Wave ring whose wall is 0.9 mm, diagnosed against the modelled

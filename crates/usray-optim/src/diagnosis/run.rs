@@ -4,7 +4,7 @@
 use super::calibration::{
     calibrate_within_budget, calibration_spec, default_free_params, FreeParam,
 };
-use super::catalogue::{catalogue, diagnosis_bounces};
+use super::catalogue::{catalogue, diagnosis_bounces, Candidate};
 use super::options::{DiagnoseOptions, FirstRound};
 use super::parameter_candidates::parameter_candidates;
 use super::refits::{null_refit, refit_leading, Control};
@@ -15,7 +15,7 @@ use super::verdict::{name_effect, unnamed_verdict, Verdict};
 use crate::spread::parameter_spread;
 use crate::OptimError;
 use std::time::Instant;
-use usray_transport::{RenderOptions, Scene};
+use usray_transport::{ParamKey, RenderOptions, Scene};
 
 /// Runs the diagnosis of `scene` against the measured B-mode `measured` (`[nz, nx]`
 /// on the scene's grid); `progress` receives one line per step.
@@ -89,11 +89,7 @@ pub fn diagnose(
 
     // Step 3: score every candidate by one value + gradient at its onset.
     let t = Instant::now();
-    // A parameter being calibrated (in a later round, the effect an earlier
-    // one named) is no candidate.
-    let mut candidates = catalogue(&stage.scene);
-    candidates.retain(|c| !calibrated_keys.contains(&c.key));
-    candidates.extend(parameter_candidates(&stage.scene, &calibrated_keys));
+    let candidates = candidates(&stage.scene, &calibrated_keys);
     let Screening {
         mut effects,
         starts,
@@ -215,6 +211,17 @@ pub fn diagnose(
         after_image,
         after_scene,
     })
+}
+
+/// Every candidate of a diagnosis of `scene` whose `calibrated` parameters are
+/// fitted: the structural catalogue, then the parameter candidates. A
+/// parameter being calibrated (in a later round, the effect an earlier one
+/// named) is no candidate.
+fn candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candidate> {
+    let mut out = catalogue(scene);
+    out.retain(|c| !calibrated.contains(&c.key));
+    out.extend(parameter_candidates(scene, calibrated));
+    out
 }
 
 /// [`EffectResult::additivity`] of the refitted effect on `path` with
@@ -346,6 +353,29 @@ pub fn diagnose_compound(
 mod tests {
     use super::*;
     use std::collections::BTreeMap;
+
+    /// In a later round the named effect's parameter is calibrated, and no
+    /// longer a candidate, even where that calibration has taken it to its
+    /// null, where the catalogue would switch it on again: the sphere's
+    /// speckle at strength 0 is a catalogue candidate until its strength is
+    /// among the calibrated parameters.
+    #[test]
+    fn a_calibrated_parameter_is_no_candidate() {
+        let text = include_str!("../../../../bench/tier_a/a2_sphere.toml").replace(
+            "roughness = 0.3\n",
+            "roughness = 0.3\nscatterer_density_per_mm3 = 5.0\nscatterer_strength = 0.0\n",
+        );
+        let scene = Scene::from_toml_str(&text, "a2_sphere.toml", ".").unwrap();
+        let strength = scene.key("materials.target.scatterer_strength").unwrap();
+        let base = default_free_params(&scene);
+        assert!(!base.contains(&strength));
+        assert!(candidates(&scene, &base).iter().any(|c| c.key == strength));
+        let mut later = base.clone();
+        later.push(strength.clone());
+        let left = candidates(&scene, &later);
+        assert!(left.iter().all(|c| !later.contains(&c.key)), "{left:?}");
+        assert!(!left.is_empty());
+    }
 
     /// An effect that removes the same loss in both rounds has additivity 1:
     /// excess 0.25 of a second-round loss 0.8 is 0.2 of the first round's 1.0,
