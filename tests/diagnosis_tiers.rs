@@ -96,6 +96,16 @@ fn diagnose_unlike(base: &Scene, truth: Scene, seed: u64) -> Diagnosis {
     d
 }
 
+/// The value of `path` in the refit of the effect the verdict named.
+fn named_value(d: &Diagnosis, path: &str) -> f64 {
+    let named = d
+        .effects
+        .iter()
+        .find(|e| Some(&e.path) == d.verdict.path.as_ref())
+        .expect("the verdict names a refitted effect");
+    named.params[path]
+}
+
 /// Why a diagnosis renders at [`diagnosis_bounces`]: at the rod scene's own
 /// limit (4) the rod hollowed to its true 1 mm wall loses its far wall and fits
 /// tier (a)'s data worse than the solid rod; at the diagnosis's limit (6) it
@@ -172,12 +182,7 @@ fn tier_a_tube_with_a_thicker_wall_names_wall_thickness() {
     );
     let d = diagnose_unlike(&base, truth, 90_002);
     assert_eq!(d.verdict.effect, "wall_thickness");
-    let found = d
-        .effects
-        .iter()
-        .find(|e| e.effect == "wall_thickness" && e.shrink == Some(d.verdict.shrink))
-        .map(|e| e.params["objects.tube.thickness_m"])
-        .unwrap();
+    let found = named_value(&d, "objects.tube.thickness_m");
     assert!(
         (found - 1.6e-3).abs() < (0.8e-3f64 - 1.6e-3).abs() / 2.0,
         "wall found {found:.3e} m for 1.6e-3"
@@ -223,11 +228,7 @@ fn tier_a_compound_speckle_and_pulse_names_the_speckle_first() {
     );
     let d = diagnose_unlike(&base, truth, 90_014);
     assert_eq!(d.verdict.effect, "volume_scattering");
-    let named = d
-        .effects
-        .iter()
-        .find(|e| Some(&e.path) == d.verdict.path.as_ref());
-    let strength = named.unwrap().params["materials.target.scatterer_strength"];
+    let strength = named_value(&d, "materials.target.scatterer_strength");
     assert!(strength > 0.0, "speckle refitted to {strength}");
 }
 

@@ -51,10 +51,11 @@ struct Refit {
 /// rate, so that a weak start (a depth gain at 1% of its range) can grow
 /// within the refit's iterations.
 fn refit_learning_rate(c: &Candidate, start: f64, toward_null: bool) -> f64 {
-    let width = c.range.1 - c.range.0;
     match c.null {
-        Some(null) if !c.two_sided && null <= c.range.0 && width > 0.0 => {
-            let quarter = 0.25 * (start - c.range.0) / width;
+        Some(null) if !c.two_sided && null <= c.range.0 => {
+            let Some(quarter) = quarter_from_null(c.range, c.range.0, start) else {
+                return c.learning_rate;
+            };
             if toward_null {
                 quarter.min(c.learning_rate)
             } else {
@@ -63,6 +64,15 @@ fn refit_learning_rate(c: &Candidate, start: f64, toward_null: bool) -> f64 {
         }
         _ => c.learning_rate,
     }
+}
+
+/// A quarter of `value`'s distance from `null`, a bound of `range`, as a
+/// fraction of the range's width: the longest step an effect near its null
+/// takes, so that no single Adam step lands on the null (where the clip map's
+/// derivative is zero). `None` for an empty range.
+pub(crate) fn quarter_from_null(range: (f64, f64), null: f64, value: f64) -> Option<f64> {
+    let width = range.1 - range.0;
+    (width > 0.0).then(|| 0.25 * (value - null).abs() / width)
 }
 
 /// Refits candidate `c` with the base `specs` from `start` (step 4);

@@ -197,12 +197,16 @@ impl EffectResult {
     /// [`EffectResult::absence_cost`] of at least three of its standard errors
     /// (the limit of detection's convention, [`EffectResult::detection_limit`]).
     fn detected_from(&self, null: f64, v: f64) -> bool {
-        let beyond_limit = self.detection_limit.is_some_and(|l| (v - null).abs() > l);
         let costly = match (self.absence_cost, self.absence_cost_std) {
             (Some(cost), Some(std)) => cost > 3.0 * std,
             _ => false,
         };
-        beyond_limit || costly
+        self.beyond_detection_limit(null, v) || costly
+    }
+
+    /// Whether `v` lies further from `null` than the limit of detection.
+    fn beyond_detection_limit(&self, null: f64, v: f64) -> bool {
+        self.detection_limit.is_some_and(|l| (v - null).abs() > l)
     }
 
     /// Whether the refit ended within 1% of the range's width from a bound
@@ -213,8 +217,7 @@ impl EffectResult {
         let margin = 0.01 * (hi - lo);
         match (self.params.get(&self.path), self.null) {
             (Some(&v), Some(null)) if null == lo || null == hi => {
-                (v - null).abs() <= margin
-                    && !self.detection_limit.is_some_and(|l| (v - null).abs() > l)
+                (v - null).abs() <= margin && !self.beyond_detection_limit(null, v)
             }
             _ => false,
         }

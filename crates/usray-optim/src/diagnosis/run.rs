@@ -7,7 +7,7 @@ use super::calibration::{
 use super::catalogue::{catalogue, diagnosis_bounces, Candidate};
 use super::options::{DiagnoseOptions, FirstRound};
 use super::parameter_candidates::parameter_candidates;
-use super::refits::{null_refit, refit_leading, Control};
+use super::refits::{null_refit, quarter_from_null, refit_leading, Control};
 use super::residual::{analyse_residual, ResidualOptions};
 use super::results::{Calibrated, Diagnosis, EffectResult, Timings};
 use super::screening::{screen, Screening};
@@ -288,14 +288,16 @@ pub fn diagnose_compound(
         // zero and the effect could not come back (as in its refit,
         // `refits::refit_learning_rate`).
         let mut fit = opts.fit.clone();
-        if let (Some(null), Some(&found)) = (named.null, named.params.get(path)) {
-            let width = named.range[1] - named.range[0];
-            let at_bound = null == named.range[0] || null == named.range[1];
-            if at_bound && width > 0.0 {
-                let quarter = 0.25 * (found - null).abs() / width;
-                let lr = quarter.min(fit.learning_rate_of(&named_key));
-                fit.lr_overrides.insert(0, (named_key, lr));
+        let [lo, hi] = named.range;
+        let quarter = match (named.null, named.params.get(path)) {
+            (Some(null), Some(&found)) if null == lo || null == hi => {
+                quarter_from_null((lo, hi), null, found)
             }
+            _ => None,
+        };
+        if let Some(quarter) = quarter {
+            let lr = quarter.min(fit.learning_rate_of(&named_key));
+            fit.lr_overrides.insert(0, (named_key, lr));
         }
         let elapsed = started.elapsed().as_secs_f64();
         // Whether to go on and the budget left, decided on the wall clock and so
