@@ -9,8 +9,8 @@
 //!
 //! The gap measured: the model's image at the true ring peaks 1.05 dB above
 //! k-Wave's, the same to 0.01 dB over seeds at 40 rays (a systematic gap, not
-//! Monte Carlo noise). Part of it is k-Wave's: its wall echo moves by 0.7 dB on
-//! the centre element on a grid twice as fine (`bench/kwave/grid_check.py`).
+//! Monte Carlo noise). Part of it is k-Wave's grid: its wall echo is 1.0–2.0 dB
+//! stronger on a grid twice as fine (`bench/kwave/grid_check.py`).
 //! Both share the array's fill factor: k-Wave's plane wave carries 0.898 of
 //! its source pressure (its free-field probes, `bench/kwave/edge_waves.py`),
 //! the kerfs emitting nothing (`w/pitch` = 0.9), and the model's beamlets over

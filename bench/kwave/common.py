@@ -94,7 +94,10 @@ def mix(f, c_bg, rho_bg, c_t=C_T, rho_t=RHO_T):
 # water and wall), lumen speckle, pulse cycles; `ref` names the background run subtracted from it
 # (same water and pulse, no ring); `gain_db_cm` a depth gain applied in finalize.py (a scanner's
 # TGC acts on the received signal, not on the field).
-THIN = 2 * DX                  # the modelled wall: 0.15 mm
+# The modelled wall, 0.15 mm whatever the grid (two cells at G = 1, four at G = 2). KWAVE_WALL_M
+# sets another (e.g. 0.45e-3) for every case that has the modelled wall, to see what a thicker wall
+# on the same grid gives (docs/diagnosis.md, Known limits, "k-Wave's grid").
+THIN = float(os.environ.get("KWAVE_WALL_M", "0.15e-3"))
 CASES = {
     "ref1480":  dict(wall=None, c_w=1480.0, alpha=0.0, speckle=False),
     "ref1520":  dict(wall=None, c_w=1520.0, alpha=0.0, speckle=False),

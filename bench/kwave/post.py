@@ -3,7 +3,9 @@ from scipy.signal import hilbert
 import os; HERE = os.path.dirname(os.path.abspath(__file__)); sys.path.insert(0, HERE); SCRATCH = os.environ.get('KWAVE_SCRATCH', os.path.join(HERE, 'scratch'))
 from common import *
 
-ANGLES = [-8.0, 0.0, 8.0]
+# KWAVE_ANGLES="0" (comma-separated degrees) finalizes only those transmits, e.g. to diagnose the 0 deg
+# runs of a finer grid alone (docs/diagnosis.md, Known limits, "k-Wave's grid").
+ANGLES = [float(a) for a in os.environ.get("KWAVE_ANGLES", "-8,0,8").split(",")]
 FS_OUT = 40e6
 DEC = int(round(1 / (FS_OUT * DT)))          # 2
 NS_OUT = (NT - N_LEAD) // DEC                # 1920
