@@ -106,6 +106,12 @@ pub struct Candidate {
     /// [`Candidate::range`] per step (0.05 unless the loss's
     /// basin is narrower than the range, as for a wall).
     pub learning_rate: f64,
+    /// The smallest departure of the parameter from its null that matters to
+    /// the image, in the parameter's unit (`None`: any departure the data
+    /// resolve matters). A refit within it is not named, however significant
+    /// its gain ([`crate::EffectResult::within_tolerance`]). Set for the
+    /// medium's sound speed ([`sound_speed_tolerance`]).
+    pub tolerance: Option<f64>,
 }
 
 impl Candidate {
@@ -161,6 +167,34 @@ fn switch_on(s: &mut Scene, key: &ParamKey, value: f64) -> Result<(), OptimError
     }
     s.validate()?;
     Ok(())
+}
+
+/// The smallest error of the medium's sound speed `c` that matters to the
+/// image of `scene`, m/s. Beamformed at the wrong speed, an echo at depth `z`
+/// is misplaced by `z·Δc/c`, a two-way path error of `2z·Δc/c`; by Rayleigh's
+/// quarter-wavelength rule (Born & Wolf, *Principles of Optics*, §9.3) a path
+/// error under `λ/4` leaves an image essentially as it was. At the image's
+/// deepest row `z_max` that gives `Δc = c·λ/(8 z_max) = c²/(8 f_c z_max)`.
+/// It keeps a speed a fraction of a degree of water temperature off (about 3
+/// m/s per °C near 20 °C) from being named: k-Wave's time step delays the
+/// echoes of the shared ring by 0.08% of their travel time, which reads as
+/// water 2.3 m/s slow.
+///
+/// ```
+/// use usray_optim::sound_speed_tolerance;
+/// let scene = usray_transport::Scene::load("../../scenes/diagnose/kwave_ring_thin.toml").unwrap();
+/// // 1480 m/s, 2.5 MHz, the image down to 28 mm: 1480² / (8 · 2.5 MHz · 28 mm).
+/// let tol = sound_speed_tolerance(&scene, 1480.0);
+/// assert!((tol - 1480.0f64.powi(2) / (8.0 * 2.5e6 * 0.028)).abs() < 1e-12);
+/// assert!((tol - 3.911).abs() < 1e-3);
+/// // The catalogue's sound speed carries it; no other candidate has one.
+/// for c in usray_optim::catalogue(&scene) {
+///     let expected = (c.effect == "sound_speed").then_some(tol);
+///     assert_eq!(c.tolerance, expected, "{}", c.effect);
+/// }
+/// ```
+pub fn sound_speed_tolerance(scene: &Scene, c: f64) -> f64 {
+    c * c / (8.0 * scene.probe.center_frequency_hz * scene.imaging.z_range_m[1])
 }
 
 /// The candidate effects for `scene` (CONTRACT §3): a wall for each solid
@@ -219,6 +253,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                     null: None,
                     fixed: vec![],
                     learning_rate: wall_learning_rate(dt, range),
+                    tolerance: None,
                 });
             }
         }
@@ -233,6 +268,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             null: Some(0.0),
             fixed: vec![],
             learning_rate: EFFECT_LEARNING_RATE,
+            tolerance: None,
         });
     }
     let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
@@ -257,6 +293,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 null: Some(0.0),
                 fixed: vec![],
                 learning_rate: EFFECT_LEARNING_RATE,
+                tolerance: None,
             });
         }
     }
@@ -306,6 +343,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             null: Some(c_img),
             fixed: vec![(ParamKey::imaging(Field::SoundSpeed), c_img)],
             learning_rate: EFFECT_LEARNING_RATE,
+            tolerance: Some(sound_speed_tolerance(scene, c_img)),
         });
     }
     // Pulse length (bandwidth): the transmitted pulse's envelope FWHM in cycles
@@ -328,6 +366,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         null: Some(cycles),
         fixed: vec![],
         learning_rate: EFFECT_LEARNING_RATE,
+        tolerance: None,
     });
     if scene.acquisition.depth_gain_db_per_cm == 0.0 {
         out.push(Candidate {
@@ -346,6 +385,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             // Steps of 0.3 dB/cm, the other effects' 5% of a ±3 dB/cm range:
             // the step the gain was tuned with, kept when its range grew.
             learning_rate: 0.3 / DEPTH_GAIN_MAX_DB_PER_CM,
+            tolerance: None,
         });
     }
     out
@@ -365,6 +405,7 @@ fn volume_scattering(strength: ParamKey, density: ParamKey) -> Candidate {
         null: Some(0.0),
         fixed: vec![(density, SCATTERER_DENSITY_PER_MM3)],
         learning_rate: EFFECT_LEARNING_RATE,
+        tolerance: None,
     }
 }
 

@@ -10,8 +10,8 @@
 //! its null.
 
 use super::catalogue::{
-    wall_echo_width_m, wall_learning_rate, wall_onsets, Candidate, DEPTH_GAIN_MAX_DB_PER_CM,
-    EFFECT_LEARNING_RATE,
+    sound_speed_tolerance, wall_echo_width_m, wall_learning_rate, wall_onsets, Candidate,
+    DEPTH_GAIN_MAX_DB_PER_CM, EFFECT_LEARNING_RATE,
 };
 use usray_transport::{Field, ParamKey, Scene};
 
@@ -60,6 +60,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candi
             null: Some(v),
             fixed: vec![],
             learning_rate: EFFECT_LEARNING_RATE,
+            tolerance: None,
         }
     };
     for o in &scene.objects {
@@ -155,13 +156,15 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candi
         // The medium's speed already differs from the beamformer's: the
         // structural candidate is off, this one asks whether the difference is
         // the right one (the structural candidate's range and onsets).
-        out.push(two_sided(
+        let mut c = two_sided(
             "sound_speed",
             path,
             v,
             (0.93 * v, 1.07 * v),
             &[0.975 * v, 1.025 * v],
-        ));
+        );
+        c.tolerance = Some(sound_speed_tolerance(scene, v));
+        out.push(c);
     }
     let path = ParamKey::probe(Field::CenterFrequency);
     if free(&path) {

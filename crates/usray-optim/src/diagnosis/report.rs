@@ -298,7 +298,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     }
     residual_kinds(&mut r, &d.residual)?;
     writeln!(r, "\n## 3–4. Candidate effects\n")?;
-    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error over the held-out seeds and, in brackets, over blocks of the image three wavelengths wide (large when the gain lies in a few places and is paid for elsewhere); gap explained: the share of the gap above the noise level the refit removes; limit of detection: the smallest departure of the effect parameter from its null that these data resolve, {:.0} Monte Carlo spreads of the refitted value (a lower bound). An effect is named when its excess is at least {:.0} standard errors over the seeds and {:.0} over the image's blocks (and, where the simulation's noise failed its check, at least {:.2}), with its parameter inside its range rather than at a bound; the share of the gap it explains is reported, not required (against data the model cannot reproduce exactly, part of the gap stays whatever effect is added).\n", d.held_out_seeds, d.null_refit.shrink, DETECTION_LIMIT_SPREADS, d.rule.min_excess_z, d.rule.min_spatial_z, d.rule.large_excess)?;
+    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error over the held-out seeds and, in brackets, over blocks of the image three wavelengths wide (large when the gain lies in a few places and is paid for elsewhere); gap explained: the share of the gap above the noise level the refit removes; limit of detection: the smallest departure of the effect parameter from its null that these data resolve, {:.0} Monte Carlo spreads of the refitted value (a lower bound). An effect is named when its excess is at least {:.0} standard errors over the seeds and {:.0} over the image's blocks (and, where the simulation's noise failed its check, at least {:.2}), with its parameter inside its range rather than at a bound and, for the medium's sound speed, further from the modelled value than its tolerance (a two-way path error of a quarter wavelength at the image's deepest row, Rayleigh's quarter-wavelength rule); the share of the gap it explains is reported, not required (against data the model cannot reproduce exactly, part of the gap stays whatever effect is added).\n", d.held_out_seeds, d.null_refit.shrink, DETECTION_LIMIT_SPREADS, d.rule.min_excess_z, d.rule.min_spatial_z, d.rule.large_excess)?;
     writeln!(
         r,
         "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | excess | gap explained | limit of detection | found |\n|---|---|---|---|---|---|---|---|---|---|---|"
@@ -316,6 +316,12 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             found.push(format!(
                 "(**`{}` at the bound of its range [{:.3e}, {:.3e}]**)",
                 e.path, e.range[0], e.range[1]
+            ));
+        }
+        if let (true, Some(tol)) = (e.within_tolerance(), e.tolerance) {
+            found.push(format!(
+                "(**within ±{} of the modelled value: too small to matter to the image**)",
+                short(tol)
             ));
         }
         writeln!(

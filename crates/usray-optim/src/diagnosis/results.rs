@@ -112,6 +112,11 @@ pub struct EffectResult {
     /// noise only (absent when not refitted, without a null, or when the
     /// parameter is not determined).
     pub detection_limit: Option<f64>,
+    /// The smallest departure of the effect parameter from its null that
+    /// matters to the image ([`super::Candidate::tolerance`]; absent where any
+    /// resolved departure matters). A refit within it is not named
+    /// ([`EffectResult::within_tolerance`]).
+    pub tolerance: Option<f64>,
     /// Where the refit ended within 1% of the range's width from the bound
     /// that is the effect's null, without clearing its limit of detection
     /// ([`EffectResult::detection_limit`]): how much the held-out loss rises
@@ -165,7 +170,7 @@ impl EffectResult {
     ///     loss_onset: 1e-2, loss_after: Some(7e-3), shrink: Some(0.3),
     ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01), excess_spatial_std: None,
     ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
-    ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, absence_cost: None, absence_cost_std: None, additivity: None,
+    ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None,
     ///     failed: None,
     /// };
     /// e.params.insert(e.path.clone(), 9.999);
@@ -209,6 +214,38 @@ impl EffectResult {
         self.detection_limit.is_some_and(|l| (v - null).abs() > l)
     }
 
+    /// Whether the refit ended within [`EffectResult::tolerance`] of the
+    /// effect's null: a departure too small to matter to the image, which is
+    /// not named however significant its gain (a water speed 2.3 m/s slow
+    /// where a quarter wavelength of path at the deepest row takes 3.9 m/s).
+    ///
+    /// ```
+    /// # use std::collections::BTreeMap;
+    /// # use usray_optim::EffectResult;
+    /// let mut e = EffectResult {
+    ///     effect: "sound_speed".into(), path: "medium.sound_speed_m_s".into(), score: 0.1,
+    ///     onset: 1480.0, range: [1376.4, 1583.6], null: Some(1480.0), gradient: 0.0,
+    ///     loss_onset: 1.0, loss_after: Some(0.9), shrink: Some(0.1), shrink_std: None,
+    ///     excess: Some(0.05), excess_std: None, excess_spatial_std: None, gap_explained: None,
+    ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
+    ///     detection_limit: None, tolerance: Some(3.9), absence_cost: None,
+    ///     absence_cost_std: None, additivity: None, failed: None,
+    /// };
+    /// e.params.insert("medium.sound_speed_m_s".into(), 1477.7);
+    /// assert!(e.within_tolerance());
+    /// e.params.insert("medium.sound_speed_m_s".into(), 1505.0);
+    /// assert!(!e.within_tolerance());
+    /// e.tolerance = None;
+    /// e.params.insert("medium.sound_speed_m_s".into(), 1477.7);
+    /// assert!(!e.within_tolerance());
+    /// ```
+    pub fn within_tolerance(&self) -> bool {
+        match (self.tolerance, self.null, self.params.get(&self.path)) {
+            (Some(tol), Some(null), Some(&v)) => (v - null).abs() < tol,
+            _ => false,
+        }
+    }
+
     /// Whether the refit ended within 1% of the range's width from a bound
     /// that is the effect's null without clearing its limit of detection:
     /// where [`EffectResult::absence_cost`] is measured.
@@ -241,7 +278,7 @@ impl EffectResult {
     ///     held_out_losses: vec![9e-3],
     ///     params: BTreeMap::from([(path.clone(), 1.5)]),
     ///     params_std: BTreeMap::from([(path, Some(0.75))]),
-    ///     detection_limit: Some(2.25), absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
+    ///     detection_limit: Some(2.25), tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
     /// };
     /// // Found +1.5 dB/cm at a spread of 0.75: two spreads from no gain.
     /// assert_eq!(e.null_z(), Some(2.0));

@@ -267,6 +267,7 @@ pub(crate) fn screen(
             params: BTreeMap::new(),
             params_std: BTreeMap::new(),
             detection_limit: None,
+            tolerance: c.tolerance,
             absence_cost: None,
             absence_cost_std: None,
             additivity: None,

@@ -94,7 +94,9 @@ pub struct Verdict {
 /// ([`EffectResult::at_range_bound`]): a refit pressed against the edge of
 /// what the effect can physically be is using the effect as a proxy for
 /// something else (on the k-Wave rings, a wall's sound speed at +15% stood in
-/// for attenuation), and says so in the report instead. How much
+/// for attenuation), and says so in the report instead. Nor may it lie within
+/// its [`EffectResult::tolerance`] of the modelled value: a departure too
+/// small to matter to the image. How much
 /// of the gap it explains is reported beside it, not a condition: against data
 /// the model cannot reproduce exactly, a model-form residual stays whatever
 /// effect is added.
@@ -115,7 +117,7 @@ pub struct Verdict {
 ///     shrink: Some(shrink), shrink_std: Some(0.01), excess: Some(excess),
 ///     excess_std: Some(0.01), excess_spatial_std: Some(spatial), gap_explained: Some(0.5),
 ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
-///     detection_limit: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
+///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
 /// };
 /// let rule = VerdictRule::default();
 /// // Shrinks 0.80 and 0.78 tie; the first has the higher score.
@@ -133,6 +135,11 @@ pub struct Verdict {
 /// let mut at_bound = refit(0.3, 0.8, 0.7, 0.1);
 /// at_bound.params.insert("p".into(), 1.0);
 /// assert!(name_effect(&[at_bound], true, &rule).is_none());
+/// // Nor one whose value lies within its tolerance of the modelled one.
+/// let mut too_small = refit(0.3, 0.8, 0.7, 0.1);
+/// (too_small.null, too_small.tolerance) = (Some(0.5), Some(0.05));
+/// too_small.params.insert("p".into(), 0.52);
+/// assert!(name_effect(&[too_small], true, &rule).is_none());
 /// // In a later round, a gain the first round did not foreshadow is no second effect.
 /// let mut jointly_only = refit(0.3, 0.3, 0.28, 0.05);
 /// jointly_only.additivity = Some(0.01);
@@ -155,7 +162,13 @@ pub fn name_effect(
             .is_some_and(|se| excess >= rule.min_spatial_z * se);
         let large_enough = noise_passed || excess >= rule.large_excess;
         let additive = e.additivity.is_none_or(|a| a >= rule.min_additivity);
-        excess > 0.0 && over_seeds && over_image && large_enough && additive && !e.at_range_bound()
+        excess > 0.0
+            && over_seeds
+            && over_image
+            && large_enough
+            && additive
+            && !e.at_range_bound()
+            && !e.within_tolerance()
     };
     let shrink = |i: usize| refits[i].shrink.unwrap_or(f64::NEG_INFINITY);
     let qualified: Vec<usize> = (0..refits.len())
