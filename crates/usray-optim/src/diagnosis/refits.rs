@@ -403,6 +403,7 @@ mod tests {
             null: Some(0.0),
             fixed: vec![],
             learning_rate: 0.05,
+            tolerance: None,
         }
     }
 
