@@ -112,6 +112,15 @@ pub struct Candidate {
     /// its gain ([`crate::EffectResult::within_tolerance`]). Set for the
     /// medium's sound speed ([`sound_speed_tolerance`]).
     pub tolerance: Option<f64>,
+    /// Refitted whatever its score, beside the best-scoring candidates
+    /// ([`crate::DiagnoseOptions::confirm_top`]), from its best onset away
+    /// from the null when the null scored best. Set for the medium's sound
+    /// speed: a speed error rescales every depth, the calibration can take it
+    /// up in the geometry (a radius that puts the brighter wall where the
+    /// wrong speed shows it), and at the calibrated point no speed alone then
+    /// lowers the loss; refitted jointly with the base parameters from a
+    /// departure, it is found (docs/diagnosis.md, "Known limits").
+    pub refit_always: bool,
 }
 
 impl Candidate {
@@ -187,10 +196,12 @@ fn switch_on(s: &mut Scene, key: &ParamKey, value: f64) -> Result<(), OptimError
 /// let tol = sound_speed_tolerance(&scene, 1480.0);
 /// assert!((tol - 1480.0f64.powi(2) / (8.0 * 2.5e6 * 0.028)).abs() < 1e-12);
 /// assert!((tol - 3.911).abs() < 1e-3);
-/// // The catalogue's sound speed carries it; no other candidate has one.
+/// // The catalogue's sound speed carries it, and is refitted whatever its
+/// // score; no other candidate has either.
 /// for c in usray_optim::catalogue(&scene) {
-///     let expected = (c.effect == "sound_speed").then_some(tol);
-///     assert_eq!(c.tolerance, expected, "{}", c.effect);
+///     let speed = c.effect == "sound_speed";
+///     assert_eq!(c.tolerance, speed.then_some(tol), "{}", c.effect);
+///     assert_eq!(c.refit_always, speed, "{}", c.effect);
 /// }
 /// ```
 pub fn sound_speed_tolerance(scene: &Scene, c: f64) -> f64 {
@@ -254,6 +265,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                     fixed: vec![],
                     learning_rate: wall_learning_rate(dt, range),
                     tolerance: None,
+                    refit_always: false,
                 });
             }
         }
@@ -269,6 +281,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             fixed: vec![],
             learning_rate: EFFECT_LEARNING_RATE,
             tolerance: None,
+            refit_always: false,
         });
     }
     let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
@@ -294,6 +307,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 fixed: vec![],
                 learning_rate: EFFECT_LEARNING_RATE,
                 tolerance: None,
+                refit_always: false,
             });
         }
     }
@@ -344,6 +358,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             fixed: vec![(ParamKey::imaging(Field::SoundSpeed), c_img)],
             learning_rate: EFFECT_LEARNING_RATE,
             tolerance: Some(sound_speed_tolerance(scene, c_img)),
+            refit_always: true,
         });
     }
     // Pulse length (bandwidth): the transmitted pulse's envelope FWHM in cycles
@@ -367,6 +382,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         fixed: vec![],
         learning_rate: EFFECT_LEARNING_RATE,
         tolerance: None,
+        refit_always: false,
     });
     if scene.acquisition.depth_gain_db_per_cm == 0.0 {
         out.push(Candidate {
@@ -386,6 +402,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             // the step the gain was tuned with, kept when its range grew.
             learning_rate: 0.3 / DEPTH_GAIN_MAX_DB_PER_CM,
             tolerance: None,
+            refit_always: false,
         });
     }
     out
@@ -406,6 +423,7 @@ fn volume_scattering(strength: ParamKey, density: ParamKey) -> Candidate {
         fixed: vec![(density, SCATTERER_DENSITY_PER_MM3)],
         learning_rate: EFFECT_LEARNING_RATE,
         tolerance: None,
+        refit_always: false,
     }
 }
 

@@ -31,7 +31,10 @@
 //!    [`DiagnoseOptions::confirm_top`] best are refitted (effect parameter + the
 //!    base free parameters, [`DiagnoseOptions::refit_iters`] iterations), each
 //!    starting from its best rendered point of the scoring (the checked step if
-//!    it lowered the loss, else the onset).
+//!    it lowered the loss, else the onset). The medium's sound speed is
+//!    refitted whatever its score ([`Candidate::refit_always`]), from its best
+//!    onset away from the null when the null scored best: the calibration can
+//!    take a speed error up in the geometry and leave it nothing to score.
 //! 4. **How far it shrinks**: losses on **held-out** data: the simulation is
 //!    re-rendered with [`DiagnoseOptions::held_out_seeds`] independent seeds
 //!    ([`held_out_seed`]: `s + 1`, then further apart; other paths) at the

@@ -61,6 +61,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candi
             fixed: vec![],
             learning_rate: EFFECT_LEARNING_RATE,
             tolerance: None,
+            refit_always: false,
         }
     };
     for o in &scene.objects {
@@ -164,6 +165,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candi
             &[0.975 * v, 1.025 * v],
         );
         c.tolerance = Some(sound_speed_tolerance(scene, v));
+        c.refit_always = true;
         out.push(c);
     }
     let path = ParamKey::probe(Field::CenterFrequency);

@@ -284,12 +284,19 @@ pub(crate) fn refit_leading(
         (&stage.held_losses, stage.held_loss, stage.noise_loss);
     let mut refits = Vec::new();
     let mut spread_s = 0.0;
-    let leading: Vec<usize> = order
+    let completed = |k: &usize| effects[*k].failed.is_none();
+    let mut leading: Vec<usize> = order
         .iter()
         .copied()
-        .filter(|&k| effects[k].failed.is_none())
+        .filter(completed)
         .take(opts.confirm_top)
         .collect();
+    let always: Vec<usize> = order
+        .iter()
+        .copied()
+        .filter(|k| completed(k) && candidates[*k].refit_always && !leading.contains(k))
+        .collect();
+    leading.extend(always);
     for k in leading {
         let c = &candidates[k];
         progress(&format!("refitting with {} ({})", c.effect, c.key));
@@ -404,6 +411,7 @@ mod tests {
             fixed: vec![],
             learning_rate: 0.05,
             tolerance: None,
+            refit_always: false,
         }
     }
 
