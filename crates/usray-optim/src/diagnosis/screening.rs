@@ -38,13 +38,11 @@ pub struct Score {
     /// The loss at the onset.
     pub loss_onset: f64,
     /// Where a confirming refit starts: the best rendered point (the checked
-    /// step when it lowered the loss, else the onset).
+    /// step when it lowered the loss, else the onset) — except for a
+    /// candidate refitted whatever its score ([`Candidate::refit_always`])
+    /// whose best point is its null, from where its refit has no gradient:
+    /// it starts from the best of its other onsets by loss.
     pub start: f64,
-    /// The best of [`Candidate::onsets`] by loss other than the null, where
-    /// there are several (else `None`): where a candidate that is refitted
-    /// whatever its score ([`Candidate::refit_always`]) starts when its best
-    /// point is its null.
-    pub best_departure: Option<f64>,
 }
 
 /// Scores candidate `c` against `measured` at the calibrated scene (loss
@@ -85,7 +83,9 @@ pub fn score_candidate(
     // the rays (each onset's loss carries about the same Monte Carlo floor); the
     // chosen onset is then evaluated at the full count like any other.
     let mut onset = c.onsets[0];
-    let mut best_departure = None;
+    // The best onset other than the null, by loss (the start of a refit-always
+    // candidate whose best point is its null).
+    let mut departure = (f64::INFINITY, None);
     if c.onsets.len() > 1 {
         let rays = render
             .rays_per_element
@@ -96,7 +96,6 @@ pub fn score_candidate(
         };
         let search_obj = objective_at(onset, &search)?;
         let mut best = f64::INFINITY;
-        let mut departure = (f64::INFINITY, None);
         for &v in &c.onsets {
             let l = search_obj.value(&[v])?.loss;
             if l < best {
@@ -106,7 +105,6 @@ pub fn score_candidate(
                 departure = (l, Some(v));
             }
         }
-        best_departure = departure.1;
         let mut half = 0.5
             * c.onsets
                 .iter()
@@ -207,8 +205,10 @@ pub fn score_candidate(
         onset,
         gradient: g,
         loss_onset: e.loss,
-        start,
-        best_departure,
+        start: match departure.1 {
+            Some(v) if c.refit_always && c.null == Some(start) => v,
+            _ => start,
+        },
     })
 }
 
@@ -254,18 +254,11 @@ pub(crate) fn screen(
                     gradient: 0.0,
                     loss_onset: f64::NAN,
                     start: c.onsets[0],
-                    best_departure: None,
                 },
                 Some(format!("scoring: {e}")),
             ),
         };
-        // A candidate refitted whatever its score starts away from its null
-        // when the null scored best: from there its refit has no gradient.
-        let start = match sc.best_departure {
-            Some(v) if c.refit_always && c.null == Some(sc.start) => v,
-            _ => sc.start,
-        };
-        starts.push(start);
+        starts.push(sc.start);
         effects.push(EffectResult {
             effect: c.effect.clone(),
             path: c.key.to_string(),
