@@ -83,5 +83,5 @@ for name in ["measured", *VARIANTS]:
         print(f"{name:15s} {'':>7s} {'':>10s} {'':>10s} {'':>8s}  {level:6.1f}")
         continue
     full = loss(img, measured)
-    print(f"{name:15s} {full.mean():.4f} {loss(img, measured, 0.25).mean():10.4f} "
+    print(f"{name:15s} {full.mean():.4f} {loss(img, measured, 1 - 45 / range_db).mean():10.4f} "
           f"{loss(img, measured, 1 - 35 / range_db).mean():10.4f} {full[under].sum() / full.size:8.4f}  {level:6.1f}")
