@@ -443,6 +443,72 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
     assert!(several.score > one.score + 0.05);
 }
 
+/// A candidate refitted whatever its score (the medium's sound speed) whose best
+/// scored point is its null must start its refit elsewhere: at the null the loss
+/// is at its minimum and the refit has no gradient to leave by, so it would
+/// only ever repeat the null refit. On data rendered from the base scene itself
+/// (another seed, the blind benchmark's noise) the speed's best onset is the
+/// null; its refit must start from the better of its nearest onsets (2.5% either
+/// side: a farther one moves the far wall by more than the pulse's length),
+/// while the same candidate not refitted-always starts at its null.
+#[test]
+fn a_candidate_refitted_whatever_its_score_starts_away_from_its_null() {
+    let _serial = one_at_a_time();
+    let base = base();
+    let c0 = base.medium.sound_speed_m_s;
+    let data = Draw {
+        kind: "none",
+        strength: 0.0,
+        scene: base.clone(),
+        seed: 4243,
+    };
+    let (measured, render, base_loss) = scoring_setup(&base, &data);
+    let speed = catalogue(&base)
+        .into_iter()
+        .find(|c| c.effect == "sound_speed")
+        .unwrap();
+    assert!(
+        speed.refit_always,
+        "the catalogue's speed is refitted always"
+    );
+    let score = |c: &Candidate| {
+        score_candidate(
+            c,
+            &base,
+            &measured,
+            base_loss,
+            &render,
+            &LossSetup::default(),
+        )
+        .unwrap()
+    };
+    let scored_only = score(&Candidate {
+        refit_always: false,
+        ..speed.clone()
+    });
+    let always = score(&speed);
+    eprintln!(
+        "no effect: speed onset {:.1} m/s, start {:.1} (scored only) and {:.1} (refitted always); null {c0:.1}",
+        always.onset, scored_only.start, always.start
+    );
+    assert_eq!(always.onset, c0, "the data hold no speed error");
+    assert_eq!(scored_only.start, c0);
+    assert!(
+        [0.975 * c0, 1.025 * c0].contains(&always.start),
+        "refit would start at {} m/s",
+        always.start
+    );
+    // The rest of the score does not depend on where the refit starts.
+    assert_eq!(
+        (always.score, always.gradient, always.loss_onset),
+        (
+            scored_only.score,
+            scored_only.gradient,
+            scored_only.loss_onset
+        )
+    );
+}
+
 /// An attenuation inside the object: the loss falls almost linearly from the null
 /// to its minimum near the true 0.66 dB/(cm·MHz) and rises beyond, so the Newton
 /// step overshoots to the range's bound. Scoring must halve it back into the
