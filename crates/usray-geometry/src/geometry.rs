@@ -381,7 +381,7 @@ pub const MEDIUM_STACK_DEPTH: usize = 8;
 /// s.exit(0);
 /// assert_eq!(s.top(), None); // background
 /// ```
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub struct MediumStack {
     len: u8,
     ids: [u32; MEDIUM_STACK_DEPTH],

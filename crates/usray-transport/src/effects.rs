@@ -234,8 +234,20 @@ impl ScattererField {
     /// (constants) and its amplitude `g`. In 2-D the cell of `p`'s projection
     /// on `y = 0`, and a position there.
     pub fn scatterer_near<T: Real>(&self, p: [f64; 3]) -> (Vec3<T>, f64) {
+        self.scatterer_in(self.cell_of(p))
+    }
+
+    /// The cell containing point `p` (metres), in units of the cell side; in
+    /// 2-D the cell of `p`'s projection on `y = 0`.
+    ///
+    /// ```
+    /// use usray_transport::effects::ScattererField;
+    /// let f = ScattererField::new(0, 8.0).unwrap(); // h = 0.5 mm
+    /// assert_eq!(f.cell_of([1.2e-3, -0.2e-3, 2.1e-3]), [2, -1, 4]);
+    /// ```
+    pub fn cell_of(&self, p: [f64; 3]) -> [i64; 3] {
         let h = self.cell_m;
-        let c = [
+        [
             (p[0] / h).floor() as i64,
             if self.planar {
                 0
@@ -243,7 +255,13 @@ impl ScattererField {
                 (p[1] / h).floor() as i64
             },
             (p[2] / h).floor() as i64,
-        ];
+        ]
+    }
+
+    /// The scatterer of cell `c` ([`ScattererField::cell_of`]): its position
+    /// (constants) and its amplitude `g`.
+    pub fn scatterer_in<T: Real>(&self, c: [i64; 3]) -> (Vec3<T>, f64) {
+        let h = self.cell_m;
         let mut k = self.key;
         for ci in c {
             k = mix64(k ^ (ci as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15));

@@ -52,7 +52,7 @@
 //! emitting elements); each returns its partial gradient, and partials are summed
 //! in chunk order. The result is bit-identical for any thread count.
 
-use crate::integrator::{Deposit, Horizon, TraceSettings};
+use crate::integrator::{Deposit, Horizon, Responses, TraceSettings};
 use crate::plan::{AcquisitionPlan, SampleGrid};
 use crate::render::{element_blocks, in_pool, settings, trace_block_within, RenderOptions};
 use crate::scene::{Field, Owner, ParamKey, Scene, SceneError, SceneT};
@@ -464,6 +464,9 @@ fn reverse_pass(
                 rec.freeze();
                 // Deposits past the records' end have no weight: not traced.
                 let window = Horizon::of(&st, &plan.grid);
+                // A response traced on the tape lives only until the next
+                // rewind: none is kept (`integrator::Responses`).
+                let mut responses = Responses::disabled();
                 for el in els.clone() {
                     let stack = crate::integrator::element_stack(&st, el);
                     for ray in 0..s.rays_per_element {
@@ -476,6 +479,7 @@ fn reverse_pass(
                             ray as u32,
                             stack,
                             window,
+                            &mut responses,
                             |d: Deposit<Var>| {
                                 let r = record_offset(*tx, d.element, n_el, adj.n_samples);
                                 let (a, tau, x) = (d.amplitude, d.time, d.shift);

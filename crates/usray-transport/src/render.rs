@@ -19,7 +19,7 @@
 //! down ([`crate::plan`]).
 
 use crate::integrator::{
-    element_stack, trace_path_from, trace_path_within, Deposit, Horizon, TraceCounters,
+    element_stack, trace_path_from, trace_path_within, Deposit, Horizon, Responses, TraceCounters,
     TraceSettings,
 };
 use crate::plan::AcquisitionPlan;
@@ -193,10 +193,22 @@ pub(crate) fn trace_block_within<T: Real>(
     mut out: impl FnMut(Deposit<T>),
 ) -> TraceCounters {
     let mut cnt = TraceCounters::default();
+    // The chunk's paths share their volume scatterers' receiver responses.
+    let mut responses = Responses::new();
     for el in els {
         let stack = element_stack(st, el);
         for ray in 0..s.rays_per_element {
-            let k = trace_path_within(st, s, tx, el, ray as u32, stack, horizon, &mut out);
+            let k = trace_path_within(
+                st,
+                s,
+                tx,
+                el,
+                ray as u32,
+                stack,
+                horizon,
+                &mut responses,
+                &mut out,
+            );
             cnt.rays += k.rays;
             cnt.deposits += k.deposits;
         }

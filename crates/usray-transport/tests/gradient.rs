@@ -126,6 +126,24 @@ fn forward_and_reverse_modes_agree_in_2d() {
     modes_agree(&scene);
 }
 
+/// The same with speckle in the cylinder, in 3-D and 2-D: forward passes
+/// reuse each scatterer's receiver responses within a chunk of paths, the
+/// reverse replay traces every one on its tape (`integrator::Responses`).
+#[test]
+fn forward_and_reverse_modes_agree_with_speckle() {
+    for dimensions in [None, Some(usray_transport::scene::Dimensions::Two)] {
+        let mut scene = cylinder();
+        scene.acquisition.dimensions = dimensions;
+        scene
+            .set(&key("materials.target.scatterer_density_per_mm3"), 4.0)
+            .unwrap();
+        scene
+            .set(&key("materials.target.scatterer_strength"), 0.3)
+            .unwrap();
+        modes_agree(&scene);
+    }
+}
+
 /// Reverse mode (12 parameters) against two forward calls of 6, and the bits
 /// of both with 1 and 2 threads.
 fn modes_agree(scene: &Scene) {

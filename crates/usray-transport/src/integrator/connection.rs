@@ -4,6 +4,7 @@
 //! against the vertex's continuation hitting the element directly.
 
 use super::context::PathCtx;
+use super::responses::Response;
 use super::spreading::Spread;
 use super::{Deposit, T_MIN};
 use crate::effects::attenuation_and_exponent;
@@ -95,17 +96,18 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
     /// estimator weight `sel_w` (see
     /// [`TraceSettings::receivers`](super::TraceSettings::receivers)). `p_bsdf`
     /// is the density (1/sr) with which the vertex's own continuation sampling
-    /// would produce the connection direction (0 for volume scatterers): an
-    /// unobstructed connection is then MIS-weighted against a direct array hit
-    /// of that continuation. `tube` is the 2-D ray tube leaving `p` towards
-    /// the element (`None` in 3-D): the deposit takes its pressure factor at
-    /// the element ([`super::spreading`]; boundaries the line crosses are
-    /// crossed straight, as by the amplitude).
+    /// would produce the connection direction: an unobstructed connection is
+    /// then MIS-weighted against a direct array hit of that continuation.
+    /// `tube` is the 2-D ray tube leaving `p` towards the element (`None` in
+    /// 3-D): the deposit takes its pressure factor at the element
+    /// ([`super::spreading`]; boundaries the line crosses are crossed
+    /// straight, as by the amplitude). Volume scatterers connect through
+    /// [`PathCtx::scatterer_response`] instead.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn connect(
         &mut self,
         p: Vec3<T>,
-        mut stack: MediumStack,
+        stack: MediumStack,
         w: T,
         beta: T,
         f_cos: T,
@@ -115,22 +117,85 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         p_bsdf: T,
         tube: Option<Spread<T>>,
     ) {
-        let st = self.st;
         if f_cos.value() == 0.0 {
             return;
         }
-        let Link { e, wo, r } = *link;
-        let normal = &st.elements[e].normal;
-        let cos_e = -cos_to_normal(st.array.kind, normal, wo);
+        let Some((cos_e, fd)) = self.directivity(link) else {
+            return;
+        };
+        let Some(line) = self.cross(p, stack, link, w * f_cos, beta, tau) else {
+            return;
+        };
+        let Link { e, r, .. } = *link;
+        let solid = self.st.element_measure(cos_e, r * r);
+        // Unobstructed: the continuation could have hit the element too.
+        let mis = if line.unobstructed && p_bsdf.value() > 0.0 {
+            power_heuristic((solid.scale(sel_w)).recip(), p_bsdf)
+        } else {
+            T::one()
+        };
+        let mut a = line.amplitude * solid * fd.scale(sel_w) * mis;
+        if let Some(tube) = tube {
+            a *= tube.advanced(r).pressure_factor();
+        }
+        self.deposit(e, a, line.beta, line.time);
+    }
+
+    /// The response of a volume scatterer at `p` (medium stack `stack`) on
+    /// the element of `link` ([`super::responses`]): what the line to the
+    /// element does to an echo of unit amplitude leaving `p` at time 0 — its
+    /// boundary transmissions, attenuation, the element's solid angle and
+    /// directivity and, in a planar scene, the spreading of the point source
+    /// the scatterer is (the incident tube's factor is the event's). `None`
+    /// where the connection is blocked.
+    pub(super) fn scatterer_response(
+        &mut self,
+        p: Vec3<T>,
+        stack: MediumStack,
+        link: &Link<T>,
+    ) -> Option<Response<T>> {
+        let (cos_e, fd) = self.directivity(link)?;
+        let line = self.cross(p, stack, link, T::one(), T::zero(), T::zero())?;
+        let r = link.r;
+        let mut amplitude = line.amplitude * self.st.element_measure(cos_e, r * r) * fd;
+        if self.st.planar {
+            amplitude *= Spread::point_source().advanced(r).pressure_factor();
+        }
+        Some(Response {
+            amplitude,
+            beta: line.beta,
+            time: line.time,
+        })
+    }
+
+    /// The cosine at the element of `link` and its receive directivity there,
+    /// or `None` where the directivity is 0.
+    fn directivity(&self, link: &Link<T>) -> Option<(T, T)> {
+        let st = self.st;
+        let normal = &st.elements[link.e].normal;
+        let cos_e = -cos_to_normal(st.array.kind, normal, link.wo);
         let fd = self
             .receiver
-            .eval(cos_e, || along_width(st.array.kind, normal, wo));
-        if fd.value() == 0.0 {
-            return;
-        }
-        // Trace the straight segment, crossing boundaries.
-        let mut amp = w * f_cos;
-        let mut beta = beta;
+            .eval(cos_e, || along_width(st.array.kind, normal, link.wo));
+        (fd.value() != 0.0).then_some((cos_e, fd))
+    }
+
+    /// The straight line of `link` from `p` (medium stack `stack`) traced
+    /// through every boundary it crosses, for an echo of amplitude `amp`,
+    /// attenuation exponent `beta` and time `tau` at `p`: the echo at the
+    /// element, or `None` where a crossing reflects totally or the line
+    /// crosses more than [`MAX_CONNECTION_CROSSINGS`] boundaries.
+    fn cross(
+        &mut self,
+        p: Vec3<T>,
+        mut stack: MediumStack,
+        link: &Link<T>,
+        mut amp: T,
+        mut beta: T,
+        tau: T,
+    ) -> Option<Crossed<T>> {
+        let st = self.st;
+        let Link { wo, r, .. } = *link;
         let mut time = tau;
         let mut origin = p;
         let mut remaining = r;
@@ -144,21 +209,12 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                     st.center_frequency,
                     remaining,
                 );
-                amp *= k;
-                beta += b;
-                let solid = st.element_measure(cos_e, r * r);
-                // Unobstructed: the continuation could have hit the element too.
-                let mis = if crossing == 0 && p_bsdf.value() > 0.0 {
-                    power_heuristic((solid.scale(sel_w)).recip(), p_bsdf)
-                } else {
-                    T::one()
-                };
-                let mut a = amp * solid * fd.scale(sel_w) * mis;
-                if let Some(tube) = tube {
-                    a *= tube.advanced(r).pressure_factor();
-                }
-                self.deposit(e, a, beta, time);
-                return;
+                return Some(Crossed {
+                    amplitude: amp * k,
+                    beta: beta + b,
+                    time,
+                    unobstructed: crossing == 0,
+                });
             };
             time += hit.t / medium.sound_speed;
             let (k, b) =
@@ -181,11 +237,21 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 other.impedance,
             );
             if f.tir {
-                return;
+                return None;
             }
             amp *= f.t;
             stack.cross(hit.object, entering);
             origin = hit.point;
         }
+        None
     }
+}
+
+/// An echo at the element, after [`PathCtx::cross`].
+struct Crossed<T> {
+    amplitude: T,
+    beta: T,
+    time: T,
+    /// The line crossed no boundary.
+    unobstructed: bool,
 }

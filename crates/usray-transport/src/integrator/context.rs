@@ -2,6 +2,7 @@
 //! and how it deposits an echo.
 
 use super::horizon::Horizon;
+use super::responses::Responses;
 use super::settings::TraceSettings;
 use super::{Deposit, TraceCounters, T_MIN};
 use crate::effects::depth_gain;
@@ -22,6 +23,9 @@ pub(super) struct PathCtx<'a, T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f
     /// Deposits from this time on are dropped by the caller (`None`: keep all).
     pub(super) horizon: Option<Horizon>,
     pub(super) counters: TraceCounters,
+    /// The volume scatterers' receiver responses traced so far (shared by the
+    /// paths of a chunk, [`super::responses`]).
+    pub(super) responses: &'a mut Responses<T>,
     pub(super) out: F,
     pub(super) cast: C,
 }

@@ -4,6 +4,7 @@
 use super::context::PathCtx;
 use super::emission::emit;
 use super::horizon::Horizon;
+use super::responses::Responses;
 use super::settings::TraceSettings;
 use super::{Deposit, TraceCounters};
 use crate::probe::centre3;
@@ -62,14 +63,28 @@ pub fn trace_path_casts<T: Real>(
     out: impl FnMut(Deposit<T>),
     cast: impl FnMut(&Ray<T>, f64, f64),
 ) -> TraceCounters {
-    trace(st, settings, tx, el, ray, start_stack, None, out, cast)
+    let mut responses = Responses::new();
+    trace(
+        st,
+        settings,
+        tx,
+        el,
+        ray,
+        start_stack,
+        None,
+        &mut responses,
+        out,
+        cast,
+    )
 }
 
 /// [`trace_path_from`] for a caller that drops every deposit arriving from
 /// `horizon` on (the renderer and the gradient replay: past the records' last
 /// sample): the work that can only produce such deposits is skipped (branches
 /// and connections that certainly arrive later, see `PathCtx::late`); the
-/// deposits that arrive earlier are the same, bit for bit.
+/// deposits that arrive earlier are the same, bit for bit. The volume
+/// scatterers' receiver responses are kept in `responses` for the caller's
+/// next paths ([`super::responses`]).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn trace_path_within<T: Real>(
     st: &SceneT<T>,
@@ -79,6 +94,7 @@ pub(crate) fn trace_path_within<T: Real>(
     ray: u32,
     start_stack: MediumStack,
     horizon: Option<Horizon>,
+    responses: &mut Responses<T>,
     out: impl FnMut(Deposit<T>),
 ) -> TraceCounters {
     trace(
@@ -89,6 +105,7 @@ pub(crate) fn trace_path_within<T: Real>(
         ray,
         start_stack,
         horizon,
+        responses,
         out,
         |_, _, _| {},
     )
@@ -104,6 +121,7 @@ fn trace<T: Real>(
     ray: u32,
     start_stack: MediumStack,
     horizon: Option<Horizon>,
+    responses: &mut Responses<T>,
     out: impl FnMut(Deposit<T>),
     cast: impl FnMut(&Ray<T>, f64, f64),
 ) -> TraceCounters {
@@ -115,6 +133,7 @@ fn trace<T: Real>(
         receiver: st.receiver,
         horizon,
         counters: TraceCounters::default(),
+        responses,
         out,
         cast,
     };

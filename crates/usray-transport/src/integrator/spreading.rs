@@ -94,15 +94,6 @@ impl<T: Real> Spread<T> {
         }
     }
 
-    /// A point scatterer lit by this tube: a new point source whose echo
-    /// carries the incident tube's pressure factor.
-    pub(crate) fn scattered(self) -> Self {
-        Self {
-            jumps: self.pressure_factor_squared(),
-            ..Self::point_source()
-        }
-    }
-
     /// The tube `s` metres further along a straight segment.
     pub(crate) fn advanced(self, s: T) -> Self {
         Self {
@@ -317,10 +308,12 @@ mod tests {
         // A point source's factor √(r / 1 mm): 1 at 1 mm.
         let p = Spread::<f64>::point_source().advanced(POINT_SOURCE_REFERENCE_M);
         assert!((p.pressure_factor() - 1.0).abs() < 1e-12);
-        // A scatterer lit by a tube carries that tube's factor times its own
-        // point source's: lit at 4 mm from a point source (factor 2), seen
-        // from 9 mm (factor 3).
-        let lit = Spread::<f64>::point_source().advanced(4e-3).scattered();
-        assert!((lit.advanced(9e-3).pressure_factor() - 6.0).abs() < 1e-12);
+        // A scatterer's echo carries the incident tube's factor times its own
+        // point source's (integrator::volume): lit at 4 mm from a point
+        // source (factor 2), seen from 9 mm (factor 3).
+        let incident = Spread::<f64>::point_source().advanced(4e-3);
+        let own = Spread::<f64>::point_source().advanced(9e-3);
+        assert!((incident.pressure_factor() - 2.0).abs() < 1e-12);
+        assert!((own.pressure_factor() - 3.0).abs() < 1e-12);
     }
 }

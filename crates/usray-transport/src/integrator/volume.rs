@@ -5,6 +5,7 @@
 //! lumen's, along the part of a segment that crosses the lumen.
 
 use super::context::PathCtx;
+use super::responses::ScattererKey;
 use super::spreading::Spread;
 use super::Deposit;
 use crate::effects::{attenuation_and_exponent, ScattererField};
@@ -90,7 +91,8 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 return;
             }
             let on_line = origin.to_f64() + dir.to_f64().scale(s);
-            let (q, g) = field.scatterer_near::<T>(on_line.value());
+            let cell = field.cell_of(on_line.value());
+            let (q, g) = field.scatterer_in::<T>(cell);
             // Time at the scatterer: along the ray to its projection, then across.
             let along = (q - origin).dot(dir);
             let t_q = tau + along / medium.sound_speed;
@@ -101,14 +103,51 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             );
             let (a_q, beta_q) = (w * k_q, beta + b_q);
             let f = (src.strength * density_weight).scale(g / field.full_angle());
-            // A scatterer is a new point source lit by the tube at `q`.
-            let tube = spread.map(|sp| sp.advanced(along).scattered());
+            // A scatterer is a new point source lit by the tube at `q`: its echo
+            // carries the incident tube's pressure factor.
+            let tube = spread.map(|sp| sp.advanced(along));
             let ue = sampler.uniform(bounce, dim::VOLUME_BASE + 2 * k + 1);
             let settings = self.settings;
-            for (e, sel_w) in settings.receivers(self.st.n_elements, ue) {
-                if let Some(aim) = self.aim(q.to_f64(), e, t_q.value()) {
-                    let link = self.link(q, &aim);
-                    self.connect(q, stack, a_q, beta_q, f, t_q, &link, sel_w, T::zero(), tube);
+            // What reached the scatterer, times each element's response.
+            let lit = a_q * f;
+            if lit.value() == 0.0 {
+                continue;
+            }
+            let lit = match tube {
+                Some(tube) => lit * tube.pressure_factor(),
+                None => lit,
+            };
+            let n_el = self.st.n_elements;
+            let slots = self.responses.scatterer(
+                ScattererKey {
+                    field: field.key,
+                    cell,
+                    stack,
+                },
+                n_el,
+            );
+            for (e, sel_w) in settings.receivers(n_el, ue) {
+                let known = slots.and_then(|at| self.responses.get(at + e));
+                let response = match known {
+                    Some(response) => response,
+                    None => {
+                        let Some(aim) = self.aim(q.to_f64(), e, t_q.value()) else {
+                            continue;
+                        };
+                        let traced = self.scatterer_response(q, stack, &self.link(q, &aim));
+                        if let Some(at) = slots {
+                            self.responses.set(at + e, traced);
+                        }
+                        traced
+                    }
+                };
+                if let Some(r) = response {
+                    self.deposit(
+                        e,
+                        lit * r.amplitude.scale(sel_w),
+                        beta_q + r.beta,
+                        t_q + r.time,
+                    );
                 }
             }
         }
