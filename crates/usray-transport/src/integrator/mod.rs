@@ -101,7 +101,7 @@ pub use edge::EdgeWaves;
 pub(crate) use horizon::Horizon;
 pub(crate) use path::trace_path_within;
 pub use path::{element_stack, trace_path, trace_path_casts, trace_path_from};
-pub use responses::Responses;
+pub(crate) use responses::Responses;
 pub use settings::TraceSettings;
 pub use spreading::POINT_SOURCE_REFERENCE_M;
 

@@ -63,7 +63,7 @@ type Slot<T> = Option<Option<Response<T>>>;
 
 /// The responses traced so far: each scatterer met owns one slot per element
 /// in `slots`, from the index `map` gives it.
-pub struct Responses<T> {
+pub(crate) struct Responses<T> {
     map: HashMap<ScattererKey, usize, BuildHasherDefault<WordHasher>>,
     slots: Vec<Slot<T>>,
     capacity: usize,
@@ -71,7 +71,7 @@ pub struct Responses<T> {
 
 impl<T: Real> Responses<T> {
     /// An empty cache, bounded in memory ([`MAX_CACHE_BYTES`]).
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self {
             map: HashMap::default(),
             slots: Vec::new(),
@@ -80,7 +80,7 @@ impl<T: Real> Responses<T> {
     }
 
     /// A cache that keeps nothing: every response is traced.
-    pub fn disabled() -> Self {
+    pub(crate) fn disabled() -> Self {
         Self {
             capacity: 0,
             ..Self::new()
@@ -90,6 +90,9 @@ impl<T: Real> Responses<T> {
     /// Where the `n_elements` slots of scatterer `key` start, made for it if
     /// it is new and the cache has room; `None` when it has none.
     pub(super) fn scatterer(&mut self, key: ScattererKey, n_elements: usize) -> Option<usize> {
+        if self.capacity == 0 {
+            return None; // disabled: nothing to look up
+        }
         if let Some(&at) = self.map.get(&key) {
             return Some(at);
         }

@@ -1,6 +1,7 @@
 //! Volume scattering along a segment (step 3a of the module docs of
 //! [`super`]): free-flight events at the rate of a scatterer grid, each
-//! scatterer connected to the receivers. Two kinds of field: an object's
+//! scatterer connected to the receivers through its responses, traced once
+//! per chunk of paths ([`super::responses`]). Two kinds of field: an object's
 //! material's, along a segment inside the object, and a hollow cylinder's
 //! lumen's, along the part of a segment that crosses the lumen.
 
