@@ -64,6 +64,10 @@ def pulse(t, ncyc=NCYC):
 GEOMS = {
     "g1": dict(centre=(0.0, 16e-3), r_out=5e-3),        # 5 mm ring on axis at 16 mm
     "g2": dict(centre=(2e-3, 13e-3), r_out=3.5e-3),     # 3.5 mm ring off axis at 13 mm
+    # Held out: chosen, with its cases' magnitudes, before any diagnosis ran on it, and
+    # not tuned on afterwards (docs/diagnosis.md, tier (b)). A 4 mm ring off axis at 18 mm
+    # with a 0.3 mm wall; a slower water, a stronger attenuation, a weaker gain.
+    "g3": dict(centre=(-2.5e-3, 18e-3), r_out=4e-3),
 }
 RING_C = GEOMS["g1"]["centre"]
 R_OUT = GEOMS["g1"]["r_out"]
@@ -103,8 +107,10 @@ CASES = {
     "ref1520":  dict(wall=None, c_w=1520.0, alpha=0.0, speckle=False),
     "refatt":   dict(wall=None, c_w=1480.0, alpha=0.5, speckle=False),
     "refpulse": dict(wall=None, c_w=1480.0, alpha=0.0, speckle=False, ncyc=NCYC_LONG),
+    "ref1450":  dict(wall=None, c_w=1450.0, alpha=0.0, speckle=False),
+    "refatt07": dict(wall=None, c_w=1480.0, alpha=0.7, speckle=False),
 }
-for g in GEOMS:
+for g in ("g1", "g2"):
     CASES.update({
         f"{g}_none":    dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
         f"{g}_wall":    dict(geom=g, wall=0.9e-3, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
@@ -115,6 +121,17 @@ for g in GEOMS:
         f"{g}_gain":    dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480",
                              raw=f"{g}_none", gain_db_cm=3.0),
     })
+G3_WALL = 0.3e-3               # g3's modelled wall (bench/kwave/g3.toml)
+CASES.update({
+    "g3_none":    dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
+    "g3_wall":    dict(geom="g3", wall=1.0e-3, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
+    "g3_speed":   dict(geom="g3", wall=G3_WALL, c_w=1450.0, alpha=0.0, speckle=False, ref="ref1450"),
+    "g3_atten":   dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.7, speckle=False, ref="refatt07"),
+    "g3_speckle": dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.0, speckle=True, ref="ref1480"),
+    "g3_pulse":   dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.0, speckle=False, ref="refpulse", ncyc=NCYC_LONG),
+    "g3_gain":    dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480",
+                       raw="g3_none", gain_db_cm=2.0),
+})
 ALPHA_POWER = 1.0              # y = 1 with alpha_mode = 'no_dispersion' (exactly dB/cm/MHz)
 SPECKLE_SEED, SPECKLE_FRAC, SPECKLE_STD, SPECKLE_CLIP = 21, 0.15, 0.02, 0.04
 

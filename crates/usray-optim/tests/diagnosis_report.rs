@@ -171,3 +171,50 @@ fn report_refuses_no_rounds_and_a_measured_image_off_the_grid() {
         "the JSON does not read the measured image"
     );
 }
+
+/// A verdict that names nothing lists the refits it passed over because they
+/// ended within their tolerance of the model's value although their gain was
+/// significant, and only those.
+#[test]
+fn report_lists_significant_refits_within_their_tolerance() {
+    let (scene, measured, mut rounds) = diagnosed();
+    rounds.truncate(1);
+    let d = &mut rounds[0];
+    d.verdict.effect = "none".into();
+    d.verdict.path = None;
+    let e = &mut d.effects[0];
+    let path = e.path.clone();
+    (e.null, e.tolerance) = (Some(1.0), Some(0.1));
+    (e.excess, e.excess_std, e.excess_spatial_std) = (Some(0.08), Some(0.004), Some(0.015));
+    let markdown = |rounds: &[Diagnosis]| {
+        Report {
+            rounds,
+            scene: &scene,
+            scene_path: Path::new("tiny.toml"),
+            measured_path: Path::new("measured.npy"),
+            measured: &measured,
+            wall_s: 1.0,
+            dimensions_note: None,
+        }
+        .markdown()
+        .unwrap()
+    };
+    const HEAD: &str = "**Significant, but too small to matter:**";
+
+    rounds[0].effects[0].params.insert(path.clone(), 1.05);
+    let md = markdown(&rounds);
+    assert!(md.contains(HEAD), "{md}");
+    assert!(
+        md.contains(&format!(
+            "(`{path}`) gained +0.080 ± 0.004 (± 0.015 over the image)"
+        )),
+        "{md}"
+    );
+    // Beyond its tolerance it is not passed over for that reason.
+    rounds[0].effects[0].params.insert(path.clone(), 1.2);
+    assert!(!markdown(&rounds).contains(HEAD));
+    // Within it, but a gain the image's blocks do not share: no gain to explain.
+    rounds[0].effects[0].params.insert(path.clone(), 1.05);
+    rounds[0].effects[0].excess_spatial_std = Some(0.05);
+    assert!(!markdown(&rounds).contains(HEAD));
+}

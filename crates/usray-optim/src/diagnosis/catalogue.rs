@@ -110,7 +110,8 @@ pub struct Candidate {
     /// the image, in the parameter's unit (`None`: any departure the data
     /// resolve matters). A refit within it is not named, however significant
     /// its gain ([`crate::EffectResult::within_tolerance`]). Set for the
-    /// medium's sound speed ([`sound_speed_tolerance`]).
+    /// medium's sound speed ([`sound_speed_tolerance`]) and a modelled wall's
+    /// thickness ([`wall_thickness_tolerance`]).
     pub tolerance: Option<f64>,
     /// Refitted whatever its score, beside the best-scoring candidates
     /// ([`crate::DiagnoseOptions::confirm_top`]), from its best onset away
@@ -206,6 +207,34 @@ fn switch_on(s: &mut Scene, key: &ParamKey, value: f64) -> Result<(), OptimError
 /// ```
 pub fn sound_speed_tolerance(scene: &Scene, c: f64) -> f64 {
     c * c / (8.0 * scene.probe.center_frequency_hz * scene.imaging.z_range_m[1])
+}
+
+/// The smallest change of a modelled wall's thickness that a diagnosis names,
+/// metres: the same quarter-wavelength rule (Rayleigh's) as
+/// [`sound_speed_tolerance`], applied to the path inside the wall. Thickening a
+/// wall by `Δd` moves the echo of its inner surface by a two-way path `2Δd` in
+/// the wall; under `λ_wall/4` that echo stays where it was, so
+/// `Δd_tol = λ_wall/8 = c_wall/(8 f_c)`. What such a change does alter is the
+/// unresolved wall echo's brightness (a thin layer's reflection grows with
+/// its thickness), which the wall's impedance sets as well: the image does
+/// not tell the two apart, and a thickness named from it would be the
+/// impedance's proxy (on a k-Wave ring, 0.21 mm for a 0.15 mm wall imaged
+/// with attenuation; docs/diagnosis.md).
+///
+/// ```
+/// use usray_optim::wall_thickness_tolerance;
+/// let scene = usray_transport::Scene::load("../../bench/kwave/g1.toml").unwrap();
+/// // The k-Wave ring's wall, 1600 m/s at 2.5 MHz: 1600 / (8 · 2.5 MHz) = 80 µm.
+/// let tol = wall_thickness_tolerance(&scene, 1600.0);
+/// assert!((tol - 80e-6).abs() < 1e-12);
+/// let wall = usray_optim::parameter_candidates(&scene, &[])
+///     .into_iter()
+///     .find(|c| c.effect == "wall_thickness")
+///     .unwrap();
+/// assert_eq!(wall.tolerance, Some(tol));
+/// ```
+pub fn wall_thickness_tolerance(scene: &Scene, c_wall: f64) -> f64 {
+    c_wall / (8.0 * scene.probe.center_frequency_hz)
 }
 
 /// The candidate effects for `scene` (CONTRACT §3): a wall for each solid

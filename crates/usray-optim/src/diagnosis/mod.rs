@@ -138,7 +138,9 @@ pub use calibration::{
     calibration_spec, default_free_params, diagnosis_smoothing, FreeParam, LossSetup,
 };
 pub(crate) use catalogue::SCATTERER_DENSITY_PER_MM3;
-pub use catalogue::{catalogue, diagnosis_bounces, sound_speed_tolerance, Candidate};
+pub use catalogue::{
+    catalogue, diagnosis_bounces, sound_speed_tolerance, wall_thickness_tolerance, Candidate,
+};
 pub use held_out::{held_out_seed, mean_and_se};
 pub use noise_budget::{noise_exponent, rays_needed, simulation_noise_share, NoiseCheck};
 pub use options::{DiagnoseOptions, FirstRound};

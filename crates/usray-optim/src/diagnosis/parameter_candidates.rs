@@ -10,8 +10,8 @@
 //! its null.
 
 use super::catalogue::{
-    sound_speed_tolerance, wall_echo_width_m, wall_learning_rate, wall_onsets, Candidate,
-    DEPTH_GAIN_MAX_DB_PER_CM, EFFECT_LEARNING_RATE,
+    sound_speed_tolerance, wall_echo_width_m, wall_learning_rate, wall_onsets,
+    wall_thickness_tolerance, Candidate, DEPTH_GAIN_MAX_DB_PER_CM, EFFECT_LEARNING_RATE,
 };
 use usray_transport::{Field, ParamKey, Scene};
 
@@ -84,6 +84,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candi
         across.retain(|x| (x - t).abs() > 0.5 * dt);
         let mut c = two_sided("wall_thickness", path, t, range, &across);
         c.learning_rate = wall_learning_rate(dt, range);
+        c.tolerance = Some(wall_thickness_tolerance(scene, m.sound_speed_m_s));
         out.push(c);
     }
     // Lumen scatterers already switched on, as a material's below.

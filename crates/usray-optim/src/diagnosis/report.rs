@@ -227,6 +227,31 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         if !limits.is_empty() {
             writeln!(r, "**What these data cannot rule out.** Within its limit of detection — {:.0} Monte Carlo spreads of its refitted value from its null — an effect cannot be told from its absence by its parameter, so one weaker than this could be present: {}. These limits are lower bounds: the spreads count Monte Carlo noise only, and a value found beyond its limit is not thereby an effect (the held-out loss decides that).\n", DETECTION_LIMIT_SPREADS, limits.join("; "))?;
         }
+        // Refits whose gain was significant but whose value ended within its
+        // tolerance of the model's: not named, and the user should know why.
+        let small: Vec<String> = d
+            .effects
+            .iter()
+            .filter(|e| e.within_tolerance())
+            .filter_map(|e| {
+                let (excess, se, se_image) = (e.excess?, e.excess_std?, e.excess_spatial_std?);
+                let significant = excess > 0.0
+                    && excess >= d.rule.min_excess_z * se
+                    && excess >= d.rule.min_spatial_z * se_image;
+                significant.then(|| {
+                    format!(
+                        "{} (`{}`) gained {excess:+.3} ± {se:.3} (± {se_image:.3} over the image) over the null refit but moved {} from the modelled value, within its tolerance ±{}",
+                        e.effect,
+                        e.path,
+                        signed(e.params[&e.path] - e.null.unwrap_or_default()),
+                        short(e.tolerance.unwrap_or_default())
+                    )
+                })
+            })
+            .collect();
+        if !small.is_empty() {
+            writeln!(r, "**Significant, but too small to matter:** {}. A departure within its tolerance leaves the image as it was or changes only what a base parameter changes too (the rule is under “Candidate effects”), so its gain is the base model being adjusted through this parameter, not this effect.\n", small.join("; "))?;
+        }
     }
     if let Some(named) = named_effect(d).filter(|e| e.at_range_bound()) {
         writeln!(r, "**At the bound of its range:** the refit left `{}` at {:.4e}, the edge of the range [{:.4e}, {:.4e}] it may take; the data may want a stronger effect than the range allows, so this value is a limit, not an estimate.\n", named.path, named.params[&named.path], named.range[0], named.range[1])?;
@@ -298,7 +323,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     }
     residual_kinds(&mut r, &d.residual)?;
     writeln!(r, "\n## 3–4. Candidate effects\n")?;
-    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error over the held-out seeds and, in brackets, over blocks of the image three wavelengths wide (large when the gain lies in a few places and is paid for elsewhere); gap explained: the share of the gap above the noise level the refit removes; limit of detection: the smallest departure of the effect parameter from its null that these data resolve, {:.0} Monte Carlo spreads of the refitted value (a lower bound). An effect is named when its excess is at least {:.0} standard errors over the seeds and {:.0} over the image's blocks (and, where the simulation's noise failed its check, at least {:.2}), with its parameter inside its range rather than at a bound and, for the medium's sound speed, further from the modelled value than its tolerance (a two-way path error of a quarter wavelength at the image's deepest row, Rayleigh's quarter-wavelength rule); the share of the gap it explains is reported, not required (against data the model cannot reproduce exactly, part of the gap stays whatever effect is added).\n", d.held_out_seeds, d.null_refit.shrink, DETECTION_LIMIT_SPREADS, d.rule.min_excess_z, d.rule.min_spatial_z, d.rule.large_excess)?;
+    writeln!(r, "Score: the fraction of the calibrated loss the effect removes along its own parameter alone, the base parameters held, at the best of its onset and a Newton step from there checked by a render (on the fit's seed; `usray_optim::score_candidate`). Shrink: `1 − loss_after/loss_calibrated`, both on held-out data (the mean over {} seeds), for the refitted candidates; ± its standard error from the per-seed differences. Excess: how much more the refit shrinks the held-out loss than the null refit (the base parameters alone, refitted as long: shrink {:.3}), with its standard error over the held-out seeds and, in brackets, over blocks of the image three wavelengths wide (large when the gain lies in a few places and is paid for elsewhere); gap explained: the share of the gap above the noise level the refit removes; limit of detection: the smallest departure of the effect parameter from its null that these data resolve, {:.0} Monte Carlo spreads of the refitted value (a lower bound). An effect is named when its excess is at least {:.0} standard errors over the seeds and {:.0} over the image's blocks (and, where the simulation's noise failed its check, at least {:.2}), with its parameter inside its range rather than at a bound and, for the medium's sound speed and a modelled wall's thickness, further from the modelled value than its tolerance (Rayleigh's quarter-wavelength rule: a two-way path error of a quarter wavelength, at the image's deepest row for the speed, inside the wall for its thickness); the share of the gap it explains is reported, not required (against data the model cannot reproduce exactly, part of the gap stays whatever effect is added).\n", d.held_out_seeds, d.null_refit.shrink, DETECTION_LIMIT_SPREADS, d.rule.min_excess_z, d.rule.min_spatial_z, d.rule.large_excess)?;
     writeln!(
         r,
         "| effect | parameter | onset | score | ∂L/∂θ at onset | loss after | shrink | excess | gap explained | limit of detection | found |\n|---|---|---|---|---|---|---|---|---|---|---|"
