@@ -117,6 +117,48 @@ pub struct FitResult {
     pub seconds: f64,
 }
 
+impl FitResult {
+    /// The parameters of the lowest loss the fit met — its iterates and its
+    /// final point — and that loss. With common random numbers (no
+    /// [`FitOptions::resample_seed`]) every loss is the same function of the
+    /// parameters, so the lowest is the best point seen; Adam on a rugged loss
+    /// can step out of a basin on one misleading gradient and end above its
+    /// start. Ties go to the later point.
+    ///
+    /// ```
+    /// use usray_optim::{FitResult, FitStep};
+    /// let step = |iter: usize, loss: f64, p: f64| FitStep {
+    ///     iter, loss, params: vec![p], grad_norm: 1.0, seconds: 0.0,
+    /// };
+    /// let r = FitResult {
+    ///     history: vec![step(0, 0.09, 0.944), step(1, 0.11, 1.04)],
+    ///     final_params: vec![1.15],
+    ///     final_loss: 0.108,
+    ///     seconds: 1.0,
+    /// };
+    /// assert_eq!(r.best(), (&[0.944][..], 0.09));
+    /// let r = FitResult { final_loss: 0.07, ..r };
+    /// assert_eq!(r.best(), (&[1.15][..], 0.07));
+    /// ```
+    #[must_use]
+    pub fn best(&self) -> (&[f64], f64) {
+        self.history
+            .iter()
+            .map(|s| (s.params.as_slice(), s.loss))
+            .chain(std::iter::once((
+                self.final_params.as_slice(),
+                self.final_loss,
+            )))
+            .fold((self.final_params.as_slice(), f64::INFINITY), |best, p| {
+                if p.1 <= best.1 {
+                    p
+                } else {
+                    best
+                }
+            })
+    }
+}
+
 /// Minimises `objective` from the physical values `start` with Adam
 /// (paper eq. adam) on the clip-and-scale state; `progress` sees every iteration.
 ///

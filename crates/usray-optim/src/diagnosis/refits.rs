@@ -132,7 +132,11 @@ fn refit_candidate(
         &format!("refit {} ({})", c.effect, c.key),
         |_| {},
     )?;
-    let fitted = obj.scene_at(&r.final_params)?;
+    // The refit's best point on its seed, not its last: on a loss whose
+    // 20-ray gradient is rugged below a wavelength, one misleading first step
+    // can carry a refit out of the basin it was scored in (`FitResult::best`).
+    let best = r.best().0.to_vec();
+    let fitted = obj.scene_at(&best)?;
     let after = held_out(&fitted, held_data, &stage.renders_held, &stage.setup)?;
     let t_spread = Instant::now();
     // The refit's image on the fit's seed (one render, also with a paired loss).
@@ -147,7 +151,7 @@ fn refit_candidate(
     .data;
     let std = parameter_spread(
         &obj,
-        &r.final_params,
+        &best,
         &image_s,
         &after[0].image.data,
         opts.spread_pairs,
@@ -157,7 +161,7 @@ fn refit_candidate(
         params: obj
             .specs
             .iter()
-            .zip(&r.final_params)
+            .zip(&best)
             .map(|(s, v)| (s.key.to_string(), *v))
             .chain(c.fixed.iter().map(|(k, v)| (k.to_string(), *v)))
             .collect(),
@@ -211,8 +215,10 @@ pub(crate) fn null_refit(
         "null refit",
         |_| {},
     )?;
+    // Its best point, as every candidate's refit (`refit_candidate`).
+    let null_best = null_fit.best().0.to_vec();
     let null_after = held_out(
-        &null_obj.scene_at(&null_fit.final_params)?,
+        &null_obj.scene_at(&null_best)?,
         held_data,
         &stage.renders_held,
         &stage.setup,
@@ -242,7 +248,7 @@ pub(crate) fn null_refit(
             held_out_losses: null_losses,
             params: specs
                 .iter()
-                .zip(&null_fit.final_params)
+                .zip(&null_best)
                 .map(|(s, v)| (s.key.to_string(), *v))
                 .collect(),
         },
