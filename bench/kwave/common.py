@@ -110,28 +110,25 @@ CASES = {
     "ref1450":  dict(wall=None, c_w=1450.0, alpha=0.0, speckle=False),
     "refatt07": dict(wall=None, c_w=1480.0, alpha=0.7, speckle=False),
 }
+def ring_cases(g, wall, thick, speed, speed_ref, alpha, alpha_ref, gain_db_cm):
+    """No effect and six effects on ring `g` modelled with a `wall` (m): a `thick` wall, water
+    at `speed` (background run `speed_ref`), attenuation `alpha` (`alpha_ref`), lumen speckle,
+    the long pulse, a depth gain."""
+    base = dict(geom=g, wall=wall, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480")
+    return {
+        f"{g}_none":    base,
+        f"{g}_wall":    {**base, "wall": thick},
+        f"{g}_speed":   {**base, "c_w": speed, "ref": speed_ref},
+        f"{g}_atten":   {**base, "alpha": alpha, "ref": alpha_ref},
+        f"{g}_speckle": {**base, "speckle": True},
+        f"{g}_pulse":   {**base, "ref": "refpulse", "ncyc": NCYC_LONG},
+        f"{g}_gain":    {**base, "raw": f"{g}_none", "gain_db_cm": gain_db_cm},
+    }
+
 for g in ("g1", "g2"):
-    CASES.update({
-        f"{g}_none":    dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
-        f"{g}_wall":    dict(geom=g, wall=0.9e-3, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
-        f"{g}_speed":   dict(geom=g, wall=THIN, c_w=1520.0, alpha=0.0, speckle=False, ref="ref1520"),
-        f"{g}_atten":   dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.5, speckle=False, ref="refatt"),
-        f"{g}_speckle": dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=True, ref="ref1480"),
-        f"{g}_pulse":   dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=False, ref="refpulse", ncyc=NCYC_LONG),
-        f"{g}_gain":    dict(geom=g, wall=THIN, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480",
-                             raw=f"{g}_none", gain_db_cm=3.0),
-    })
+    CASES.update(ring_cases(g, THIN, 0.9e-3, 1520.0, "ref1520", 0.5, "refatt", 3.0))
 G3_WALL = 0.3e-3               # g3's modelled wall (bench/kwave/g3.toml)
-CASES.update({
-    "g3_none":    dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
-    "g3_wall":    dict(geom="g3", wall=1.0e-3, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480"),
-    "g3_speed":   dict(geom="g3", wall=G3_WALL, c_w=1450.0, alpha=0.0, speckle=False, ref="ref1450"),
-    "g3_atten":   dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.7, speckle=False, ref="refatt07"),
-    "g3_speckle": dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.0, speckle=True, ref="ref1480"),
-    "g3_pulse":   dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.0, speckle=False, ref="refpulse", ncyc=NCYC_LONG),
-    "g3_gain":    dict(geom="g3", wall=G3_WALL, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480",
-                       raw="g3_none", gain_db_cm=2.0),
-})
+CASES.update(ring_cases("g3", G3_WALL, 1.0e-3, 1450.0, "ref1450", 0.7, "refatt07", 2.0))
 ALPHA_POWER = 1.0              # y = 1 with alpha_mode = 'no_dispersion' (exactly dB/cm/MHz)
 SPECKLE_SEED, SPECKLE_FRAC, SPECKLE_STD, SPECKLE_CLIP = 21, 0.15, 0.02, 0.04
 

@@ -232,21 +232,17 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         let small: Vec<String> = d
             .effects
             .iter()
-            .filter(|e| e.within_tolerance())
+            .filter(|e| e.within_tolerance() && d.rule.significant(e))
             .filter_map(|e| {
-                let (excess, se, se_image) = (e.excess?, e.excess_std?, e.excess_spatial_std?);
-                let significant = excess > 0.0
-                    && excess >= d.rule.min_excess_z * se
-                    && excess >= d.rule.min_spatial_z * se_image;
-                significant.then(|| {
-                    format!(
-                        "{} (`{}`) gained {excess:+.3} ± {se:.3} (± {se_image:.3} over the image) over the null refit but moved {} from the modelled value, within its tolerance ±{}",
-                        e.effect,
-                        e.path,
-                        signed(e.params[&e.path] - e.null.unwrap_or_default()),
-                        short(e.tolerance.unwrap_or_default())
-                    )
-                })
+                let (excess, se_image) = (e.excess?, e.excess_spatial_std?);
+                let se = e.excess_std.map_or(String::new(), |se| format!(" ± {se:.3}"));
+                Some(format!(
+                    "{} (`{}`) gained {excess:+.3}{se} (± {se_image:.3} over the image) over the null refit but moved {} from the modelled value, within its tolerance ±{}",
+                    e.effect,
+                    e.path,
+                    signed(e.params[&e.path] - e.null?),
+                    short(e.tolerance?)
+                ))
             })
             .collect();
         if !small.is_empty() {

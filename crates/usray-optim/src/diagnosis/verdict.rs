@@ -65,6 +65,25 @@ impl Default for VerdictRule {
     }
 }
 
+impl VerdictRule {
+    /// Whether `e`'s excess over the null refit is significant: positive, at
+    /// least [`VerdictRule::min_excess_z`] standard errors over the held-out
+    /// seeds (skipped with one seed) and [`VerdictRule::min_spatial_z`] over
+    /// the image's blocks. The first of [`name_effect`]'s conditions, which
+    /// the report also uses for the refits it passes over.
+    #[must_use]
+    pub fn significant(&self, e: &EffectResult) -> bool {
+        let Some(excess) = e.excess else {
+            return false;
+        };
+        excess > 0.0
+            && e.excess_std
+                .is_none_or(|se| excess >= self.min_excess_z * se)
+            && e.excess_spatial_std
+                .is_some_and(|se| excess >= self.min_spatial_z * se)
+    }
+}
+
 /// The verdict.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Verdict {
@@ -151,20 +170,9 @@ pub fn name_effect(
     rule: &VerdictRule,
 ) -> Option<(usize, Vec<usize>)> {
     let qualifies = |e: &EffectResult| {
-        let Some(excess) = e.excess else {
-            return false;
-        };
-        let over_seeds = e
-            .excess_std
-            .is_none_or(|se| excess >= rule.min_excess_z * se);
-        let over_image = e
-            .excess_spatial_std
-            .is_some_and(|se| excess >= rule.min_spatial_z * se);
-        let large_enough = noise_passed || excess >= rule.large_excess;
+        let large_enough = noise_passed || e.excess.is_some_and(|x| x >= rule.large_excess);
         let additive = e.additivity.is_none_or(|a| a >= rule.min_additivity);
-        excess > 0.0
-            && over_seeds
-            && over_image
+        rule.significant(e)
             && large_enough
             && additive
             && !e.at_range_bound()
