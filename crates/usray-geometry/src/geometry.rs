@@ -323,6 +323,28 @@ impl<T: Real> Geometry<T> {
         }
     }
 
+    /// Thickness (metres) of object `object` where it is a layer with the same
+    /// medium on both sides: a tube's wall (its lumen holds the medium around
+    /// it) or a slab; `None` for solids and meshes. The far surface lies
+    /// `thickness` along the inward normal of either surface (radial for a
+    /// tube, `z` for a slab).
+    ///
+    /// ```
+    /// use usray_geometry::shapes::hollow_cylinder::HollowCylinder;
+    /// use usray_geometry::{Geometry, Shape, Vec3};
+    /// let mut g = Geometry::<f64>::new();
+    /// let tube = HollowCylinder::new(Vec3::new(0.0, 0.0, 0.02), 5e-3, 0.15e-3);
+    /// let k = g.add(Shape::HollowCylinder(tube)).unwrap();
+    /// assert_eq!(g.layer_thickness(k), Some(0.15e-3));
+    /// ```
+    pub fn layer_thickness(&self, object: usize) -> Option<T> {
+        match self.objects.get(object)? {
+            Shape::HollowCylinder(s) => Some(s.thickness_m),
+            Shape::Slab(s) => Some(s.z_bottom_m - s.z_top_m),
+            Shape::Sphere(_) | Shape::Cylinder(_) | Shape::HalfSpace(_) | Shape::Mesh(_) => None,
+        }
+    }
+
     /// The nearest hit with `t ∈ [t_min, t_max]` (metres): [`Geometry::find`] on
     /// the ray's values, then [`Geometry::hit_from`] in `T`.
     pub fn intersect(&self, ray: &Ray<T>, t_min: f64, t_max: f64) -> Option<Hit<T>> {

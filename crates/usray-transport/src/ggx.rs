@@ -34,6 +34,7 @@
 
 use crate::fresnel::{fresnel, fresnel_ratio, reflect, refract};
 use crate::ggx_planar as planar;
+use crate::thin_layer::{frustrated_transmission, Layer};
 use usray_ad::Real;
 use usray_geometry::Vec3;
 
@@ -197,6 +198,10 @@ pub struct Scatter<T> {
     pub transmitted: Option<Lobe<T>>,
     /// True when the lobes are deltas (smooth interface).
     pub specular: bool,
+    /// True when the transmitted lobe tunnelled through a thin layer
+    /// ([`Interface::scatter_through`]): it continues from the layer's far
+    /// surface, in the medium it came from.
+    pub tunnelled: bool,
 }
 
 impl<T: Real> Interface<T> {
@@ -259,6 +264,23 @@ impl<T: Real> Interface<T> {
     /// `R·G2(i,o)/G1(i)` for reflection and `T·G2(i,o)/G1(i)` for transmission;
     /// for a smooth interface simply `R` and `T`.
     pub fn scatter(&self, wi: Vec3<T>, n: Vec3<T>, u1: f64, u2: f64) -> Option<Scatter<T>> {
+        self.scatter_through(wi, n, u1, u2, None)
+    }
+
+    /// [`Interface::scatter`] at the near surface of a thin `layer` of the
+    /// other medium (a tube's wall, a slab) with the incident medium on its far
+    /// side: where the sampled microfacet is beyond the critical angle, the
+    /// fraction `|T|²` of [`frustrated_transmission`] crosses the layer in the
+    /// incident direction (the transmitted lobe, [`Scatter::tunnelled`]) and
+    /// the reflection keeps `√(1 − |T|²)`; elsewhere as [`Interface::scatter`].
+    pub fn scatter_through(
+        &self,
+        wi: Vec3<T>,
+        n: Vec3<T>,
+        u1: f64,
+        u2: f64,
+        layer: Option<Layer<T>>,
+    ) -> Option<Scatter<T>> {
         let cos_i = wi.dot(n);
         if cos_i.value() <= 0.0 {
             return None;
@@ -285,14 +307,36 @@ impl<T: Real> Interface<T> {
                 g2(cos_i, wo.dot(n).abs(), self.alpha) / g1(cos_i, self.alpha)
             }
         };
+        // Step 4: beyond the critical angle, the part of the wave that
+        // tunnels through a thin layer (thin_layer module docs).
+        let tunnel = layer.filter(|_| f.tir).and_then(|l| {
+            frustrated_transmission(
+                cos_ih,
+                self.c1,
+                self.c2,
+                self.z1,
+                self.z2,
+                l.thickness_m,
+                l.frequency_hz,
+            )
+        });
+        let r = match tunnel {
+            Some(t2) => (T::one() - t2).safe_sqrt(),
+            None => f.r,
+        };
         let reflected = {
             let wo = reflect(d, h);
             (wo.dot(n).value() > 0.0).then(|| Lobe {
                 wo,
-                weight: f.r * shadow(wo),
+                weight: r * shadow(wo),
             })
         };
-        let transmitted = if f.tir {
+        let transmitted = if let Some(t2) = tunnel {
+            (d.dot(n).value() < 0.0 && t2.value() > 0.0).then(|| Lobe {
+                wo: d,
+                weight: t2.safe_sqrt() * shadow(d),
+            })
+        } else if f.tir {
             None
         } else {
             let wo = refract(d, h, self.c2 / self.c1, f.cos_t);
@@ -305,6 +349,7 @@ impl<T: Real> Interface<T> {
             reflected,
             transmitted,
             specular: smooth,
+            tunnelled: tunnel.is_some(),
         })
     }
 

@@ -123,6 +123,7 @@ pub mod probe;
 pub mod render;
 pub mod rng;
 pub mod scene;
+pub mod thin_layer;
 
 pub use gradient::channel_gradient;
 pub use integrator::{trace_path, Deposit, TraceSettings};

@@ -231,6 +231,39 @@ fn planar_transport_matches_finite_differences() {
 }
 
 #[test]
+fn tunnelling_through_a_thin_wall_matches_finite_differences() {
+    // A thin wall faster than the water (0.15 mm at 1700 m/s in 1540 m/s
+    // water, critical angle 65°): rays meeting it beyond the critical angle
+    // tunnel through in part (`thin_layer`), from outside into the lumen and
+    // back out, with a weight that depends on the thickness, the wall's speed
+    // and impedance, and the angle (so the radius). In 2-D, where every ray
+    // stays in the plane of the ring's cut.
+    let scene = scene_0deg(
+        "ring.toml",
+        CYL_ANGLES,
+        &[
+            (
+                "emission = \"plane_wave\"",
+                "emission = \"plane_wave\"\ndimensions = 2",
+            ),
+            ("thickness_m = 0.001", "thickness_m = 0.15e-3"),
+            ("sound_speed_m_s = 1570.0", "sound_speed_m_s = 1700.0"),
+            ("roughness = 0.3", "roughness = 0.05"),
+        ],
+    );
+    let r = check(
+        &scene,
+        &[
+            ("objects.tube.thickness_m", 1e-8),
+            ("materials.wall.sound_speed_m_s", 1e-8),
+            ("materials.wall.impedance_mrayl", 1e-8),
+            ("objects.tube.radius_m", 1e-9),
+        ],
+    );
+    assert_tight("2-D thin fast wall", &r);
+}
+
+#[test]
 fn element_directivity_matches_finite_differences() {
     // The element's own receive directivity (the cylinder scene without its
     // lobe lines): `sinc(π w f_c s / c)` depends on the element width, the

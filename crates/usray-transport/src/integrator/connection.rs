@@ -10,6 +10,7 @@ use super::{Deposit, T_MIN};
 use crate::effects::attenuation_and_exponent;
 use crate::fresnel::fresnel;
 use crate::probe::{along_width, centre3, cos_to_normal};
+use crate::thin_layer::frustrated_transmission;
 use usray_ad::Real;
 use usray_geometry::{MediumStack, Ray, Vec3};
 
@@ -237,7 +238,29 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 other.impedance,
             );
             if f.tir {
-                return None;
+                // Beyond the critical angle only a thin layer with this medium
+                // on its far side lets the line through (`thin_layer`): it
+                // resumes on the far surface, the stack as it was.
+                let d = entering
+                    .then(|| st.geometry.layer_thickness(hit.object))
+                    .flatten()?;
+                let t2 = frustrated_transmission(
+                    cos_i,
+                    medium.sound_speed,
+                    other.sound_speed,
+                    medium.impedance,
+                    other.impedance,
+                    d,
+                    st.center_frequency,
+                )?;
+                if t2.value() <= 0.0 {
+                    return None;
+                }
+                amp *= t2.safe_sqrt();
+                let step = hit.normal * -d;
+                remaining -= step.dot(wo);
+                origin = hit.point + step;
+                continue;
             }
             amp *= f.t;
             stack.cross(hit.object, entering);

@@ -8,6 +8,7 @@ use super::{Deposit, MIN_BRANCH_AMPLITUDE};
 use crate::ggx::{Interface, SMOOTH_ALPHA};
 use crate::rng::dim;
 use crate::scene::MaterialT;
+use crate::thin_layer::Layer;
 use usray_ad::Real;
 use usray_geometry::{Hit, Ray, Vec3};
 
@@ -113,11 +114,22 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         }
 
         // Step 5b: split into the reflected and the transmitted continuation.
-        let Some(s) = iface.scatter(
+        // Entering a layer (a tube's wall, a slab) whose far side holds the
+        // medium the branch is in, a wave beyond the critical angle tunnels
+        // through it in part (`thin_layer`).
+        let layer_m = entering
+            .then(|| st.geometry.layer_thickness(hit.object))
+            .flatten();
+        let layer = layer_m.map(|thickness_m| Layer {
+            thickness_m,
+            frequency_hz: st.center_frequency,
+        });
+        let Some(s) = iface.scatter_through(
             wi,
             n_inc,
             sampler.uniform(bounce, dim::GGX_U1),
             sampler.uniform(bounce, dim::GGX_U2),
+            layer,
         ) else {
             return;
         };
@@ -128,12 +140,26 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             if !w_child.is_finite() || w_child.value().abs() < MIN_BRANCH_AMPLITUDE {
                 continue;
             }
+            let tunnelled = !reflected && s.tunnelled;
             let mut child_stack = stack;
-            if !reflected {
+            if !reflected && !tunnelled {
                 child_stack.cross(hit.object, entering);
             }
+            // A tunnelled branch leaves from the layer's far surface, the
+            // thickness along the inward normal, in the medium it came from
+            // (crossing the wall in and out leaves the stack as it was); the
+            // evanescent crossing takes no time and leaves its tube as it was.
+            let origin = match layer_m.filter(|_| tunnelled) {
+                Some(d) => hit.point - n_inc * d,
+                None => hit.point,
+            };
+            let spread = if tunnelled {
+                spread
+            } else {
+                tube_after.map(|after| after(lobe.wo, reflected))
+            };
             pending.push(Branch {
-                origin: hit.point,
+                origin,
                 dir: lobe.wo,
                 w: w_child,
                 beta,
@@ -142,10 +168,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
                 specular_chain: specular_chain && !rough,
                 last_rough: incident
                     .as_ref()
-                    .filter(|_| rough && (reflected || rough_vertices == 0))
+                    .filter(|_| rough && !tunnelled && (reflected || rough_vertices == 0))
                     .map(|inc| inc.eval_pdf(lobe.wo).1),
                 rough_vertices: rough_vertices + u32::from(rough),
-                spread: tube_after.map(|after| after(lobe.wo, reflected)),
+                spread,
                 bounce: bounce + 1,
                 sampler: sampler.branch(branch),
             });

@@ -35,7 +35,11 @@
 //!    normal (GGX) and **split**: the reflected and the transmitted continuation
 //!    are both traced, each with its own weight (see [`crate::ggx::Interface::scatter`];
 //!    the paper's `R²` choice would make the fixed-seed estimate jump in the
-//!    parameters). The transmitted branch updates the medium stack.
+//!    parameters). The transmitted branch updates the medium stack. Entering a
+//!    thin layer (a tube's wall, a slab) beyond its critical angle, the
+//!    transmitted branch is the wave that tunnels through it
+//!    ([`crate::thin_layer`]): it resumes on the far surface, in the medium it
+//!    came from.
 //! 6. A branch stops after `max_bounces` interactions, on escape, on a dead
 //!    sample, or below [`MIN_BRANCH_AMPLITUDE`].
 //!
@@ -80,7 +84,8 @@
 //! element (probability `1/N_e`, divided out). The aim point is the centre, and the
 //! straight segment to it is traced through the scene multiplying the Fresnel
 //! transmission coefficient of every boundary crossed (refraction is **ignored**
-//! on the connection, as in the paper; total internal reflection blocks it) and
+//! on the connection, as in the paper; total internal reflection blocks it,
+//! except at a thin layer, which passes `|T|` of [`crate::thin_layer`]) and
 //! the attenuation of every medium; time accumulates `length / c` per medium.
 
 mod arrival;
