@@ -72,7 +72,10 @@ GEOMS = {
 RING_C = GEOMS["g1"]["centre"]
 R_OUT = GEOMS["g1"]["r_out"]
 C_W, RHO_W = 1480.0, 1000.0
-C_T, RHO_T = 1600.0, 1100.0
+# KWAVE_WALL_C sets another wall speed, its density keeping the wall's 1.76 MRayl (e.g. 1480: no
+# refraction at the wall; docs/diagnosis.md, Known limits, "k-Wave's grid").
+C_T = float(os.environ.get("KWAVE_WALL_C", "1600"))
+RHO_T = 1100.0 * 1600.0 / C_T
 
 def ring_fraction(r_in, r_out, nsub=10, centre=None):
     """Area fraction of each interior cell covered by the annulus r_in < r < r_out about `centre`."""
