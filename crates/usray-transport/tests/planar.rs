@@ -4,26 +4,11 @@
 //! bad value of the key is refused with its name.
 
 mod common;
-use common::{element_echoes, header, mean_se};
+use common::{element_echoes, for_each_cast, header, mean_se, plane_wave_scene as scene};
 use usray_signal::io::declared_dimensions_of;
-use usray_transport::integrator::{element_stack, trace_path_casts, TraceSettings};
 use usray_transport::plan::AcquisitionPlan;
 use usray_transport::scene::Dimensions;
 use usray_transport::{render, RenderOptions, Scene};
-
-/// A scene from the tests' header with plane-wave emission (the default),
-/// 2-D when `planar`, with `body` appended. The 2-D scene leaves out the
-/// aperture's edge waves, which 3-D does not model (`tests/edge_waves.rs`).
-fn scene(planar: bool, rays: usize, body: &str) -> Scene {
-    let mut text = header(32, 0.27e-3, "[0.0]", rays, 3).replace("emission = \"cosine\"", "");
-    if planar {
-        text = text.replace(
-            "sampler = \"independent\"",
-            "sampler = \"independent\"\ndimensions = 2\nedge_waves = false",
-        );
-    }
-    Scene::from_toml_str(&format!("{text}\n{body}"), "<planar>", ".").unwrap()
-}
 
 /// A thin rough cylinder of radius 0.05 mm on the axis at `depth` m.
 fn rough_rod(depth: f64) -> String {
@@ -134,36 +119,14 @@ fn every_ray_and_connection_of_a_2d_scene_stays_in_the_plane() {
                 radius_m = 2.0e-3\nmaterial = \"wall\"\n";
     let mut s = scene(true, 8, body);
     s.acquisition.emission = usray_transport::scene::Emission::Cosine;
-    let st = s.lift_const::<f64>().unwrap();
-    let a = &s.acquisition;
-    let settings = TraceSettings {
-        seed: a.seed,
-        max_bounces: 4,
-        rays_per_element: a.rays_per_element,
-        receivers_per_event: 0,
-        sampler: a.sampler,
-    };
-    let (mut casts, mut deposits) = (0usize, 0usize);
-    for el in 0..s.probe.n_elements {
-        for ray in 0..a.rays_per_element as u32 {
-            trace_path_casts(
-                &st,
-                &settings,
-                0,
-                el,
-                ray,
-                element_stack(&st, el),
-                |_| deposits += 1,
-                |r, _, _| {
-                    casts += 1;
-                    assert!(
-                        r.origin.y.abs() < 1e-15 && r.dir.y.abs() < 1e-12,
-                        "a ray left the plane: {r:?}"
-                    );
-                },
-            );
-        }
-    }
+    let mut casts = 0usize;
+    let deposits = for_each_cast(&s, |r| {
+        casts += 1;
+        assert!(
+            r.origin.y.abs() < 1e-15 && r.dir.y.abs() < 1e-12,
+            "a ray left the plane: {r:?}"
+        );
+    });
     eprintln!("{casts} casts, {deposits} deposits");
     assert!(
         casts > 10_000 && deposits > 10_000,

@@ -11,9 +11,7 @@
 //! its direction where a refracted one bends.
 
 mod common;
-use common::header;
-use usray_transport::integrator::{element_stack, trace_path_casts, TraceSettings};
-use usray_transport::Scene;
+use common::{for_each_cast, plane_wave_scene};
 
 const R_OUT: f64 = 3.0e-3;
 const WALL: f64 = 0.15e-3;
@@ -28,44 +26,16 @@ fn lumen_rays() -> Vec<(f64, [f64; 3])> {
          [[objects]]\nname = \"tube\"\nshape = \"cylinder\"\ncenter_m = [0.0, 0.0, {Z_CENTRE}]\n\
          radius_m = {R_OUT}\nthickness_m = {WALL}\nmaterial = \"wall\"\n"
     );
-    let text = header(32, 0.27e-3, "[0.0]", 64, 4)
-        .replace("emission = \"cosine\"", "")
-        .replace(
-            "sampler = \"independent\"",
-            "sampler = \"independent\"\ndimensions = 2\nedge_waves = false",
-        );
-    let s = Scene::from_toml_str(&format!("{text}\n{body}"), "<thin layer>", ".").unwrap();
-    let st = s.lift_const::<f64>().unwrap();
-    let a = &s.acquisition;
-    let settings = TraceSettings {
-        seed: a.seed,
-        max_bounces: 4,
-        rays_per_element: a.rays_per_element,
-        receivers_per_event: 0,
-        sampler: a.sampler,
-    };
+    let s = plane_wave_scene(true, 64, &body);
     let r_in = R_OUT - WALL;
     let mut out = Vec::new();
-    for el in 0..s.probe.n_elements {
-        for ray in 0..a.rays_per_element as u32 {
-            trace_path_casts(
-                &st,
-                &settings,
-                0,
-                el,
-                ray,
-                element_stack(&st, el),
-                |_| {},
-                |r, _, _| {
-                    let (x, z) = (r.origin.x, r.origin.z - Z_CENTRE);
-                    if (x * x + z * z).sqrt() < r_in + 1e-9 {
-                        let b = (x * r.dir.z - z * r.dir.x).abs();
-                        out.push((b, [r.dir.x, r.dir.y, r.dir.z]));
-                    }
-                },
-            );
+    for_each_cast(&s, |r| {
+        let (x, z) = (r.origin.x, r.origin.z - Z_CENTRE);
+        if (x * x + z * z).sqrt() < r_in + 1e-9 {
+            let b = (x * r.dir.z - z * r.dir.x).abs();
+            out.push((b, [r.dir.x, r.dir.y, r.dir.z]));
         }
-    }
+    });
     out
 }
 

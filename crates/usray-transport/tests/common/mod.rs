@@ -5,6 +5,49 @@
 use usray_signal::ChannelData;
 use usray_transport::ParamKey;
 
+/// A scene from the tests' header with plane-wave emission (the default),
+/// 2-D when `planar`, with `body` appended. The 2-D scene leaves out the
+/// aperture's edge waves, which 3-D does not model (`tests/edge_waves.rs`).
+pub fn plane_wave_scene(planar: bool, rays: usize, body: &str) -> usray_transport::Scene {
+    let mut text = header(32, 0.27e-3, "[0.0]", rays, 3).replace("emission = \"cosine\"", "");
+    if planar {
+        text = text.replace(
+            "sampler = \"independent\"",
+            "sampler = \"independent\"\ndimensions = 2\nedge_waves = false",
+        );
+    }
+    usray_transport::Scene::from_toml_str(&format!("{text}\n{body}"), "<planar>", ".").unwrap()
+}
+
+/// Traces every primary path of transmit 0 of `s` (its rays per element,
+/// seed and sampler; `max_bounces` 4, every receiver per event) in `f64`,
+/// calling `cast` on every ray the paths cast (segments and receiver
+/// connections); returns the number of deposits.
+pub fn for_each_cast(
+    s: &usray_transport::Scene,
+    mut cast: impl FnMut(&usray_geometry::Ray<f64>),
+) -> usize {
+    use usray_transport::integrator::{element_stack, trace_path_casts, TraceSettings};
+    let st = s.lift_const::<f64>().unwrap();
+    let a = &s.acquisition;
+    let settings = TraceSettings {
+        seed: a.seed,
+        max_bounces: 4,
+        rays_per_element: a.rays_per_element,
+        receivers_per_event: 0,
+        sampler: a.sampler,
+    };
+    let mut deposits = 0;
+    for el in 0..s.probe.n_elements {
+        for ray in 0..a.rays_per_element as u32 {
+            let stack = element_stack(&st, el);
+            let count = |_| deposits += 1;
+            trace_path_casts(&st, &settings, 0, el, ray, stack, count, |r, _, _| cast(r));
+        }
+    }
+    deposits
+}
+
 /// The key of a dotted parameter path (the tests name parameters by path).
 pub fn key(path: &str) -> ParamKey {
     path.parse().unwrap_or_else(|e| panic!("{e}"))
