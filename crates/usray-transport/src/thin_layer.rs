@@ -28,6 +28,9 @@
 //! frequency, at which `ω` is taken; the evanescent crossing adds no
 //! propagation delay and the tunnelled ray leaves the far side in its incident
 //! direction (Snell between equal fluids).
+//!
+//! The tracer applies it where a scene sets
+//! `acquisition.thin_layer_tunnelling = true` (off by default: `docs/contract.md`).
 
 use usray_ad::Real;
 

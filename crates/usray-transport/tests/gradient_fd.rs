@@ -234,7 +234,7 @@ fn planar_transport_matches_finite_differences() {
 fn tunnelling_through_a_thin_wall_matches_finite_differences() {
     // A thin wall faster than the water (0.15 mm at 1700 m/s in 1540 m/s
     // water, critical angle 65°): rays meeting it beyond the critical angle
-    // tunnel through in part (`thin_layer`), from outside into the lumen and
+    // tunnel through in part (`thin_layer`, asked for), from outside into the lumen and
     // back out, with a weight that depends on the thickness, the wall's speed
     // and impedance, and the angle (so the radius). In 2-D, where every ray
     // stays in the plane of the ring's cut.
@@ -244,7 +244,7 @@ fn tunnelling_through_a_thin_wall_matches_finite_differences() {
         &[
             (
                 "emission = \"plane_wave\"",
-                "emission = \"plane_wave\"\ndimensions = 2",
+                "emission = \"plane_wave\"\ndimensions = 2\nthin_layer_tunnelling = true",
             ),
             ("thickness_m = 0.001", "thickness_m = 0.15e-3"),
             ("sound_speed_m_s = 1570.0", "sound_speed_m_s = 1700.0"),

@@ -19,14 +19,15 @@ const Z_CENTRE: f64 = 12.0e-3;
 
 /// Every ray cast inside the lumen of a smooth thin ring (0.15 mm thick,
 /// 1700 m/s in 1540 m/s water, at 5 MHz), 2-D, as (impact parameter `b`,
-/// direction).
-fn lumen_rays() -> Vec<(f64, [f64; 3])> {
+/// direction), with `acquisition.thin_layer_tunnelling` as given.
+fn lumen_rays(tunnelling: bool) -> Vec<(f64, [f64; 3])> {
     let body = format!(
         "[materials.wall]\nimpedance_mrayl = 1.8\nsound_speed_m_s = 1700.0\nroughness = 0.0\n\n\
          [[objects]]\nname = \"tube\"\nshape = \"cylinder\"\ncenter_m = [0.0, 0.0, {Z_CENTRE}]\n\
          radius_m = {R_OUT}\nthickness_m = {WALL}\nmaterial = \"wall\"\n"
     );
-    let s = plane_wave_scene(true, 64, &body);
+    let mut s = plane_wave_scene(true, 64, &body);
+    s.acquisition.thin_layer_tunnelling = tunnelling;
     let r_in = R_OUT - WALL;
     let mut out = Vec::new();
     for_each_cast(&s, |r| {
@@ -43,7 +44,7 @@ fn lumen_rays() -> Vec<(f64, [f64; 3])> {
 fn rays_beyond_the_critical_offset_tunnel_into_a_thin_lumen() {
     let r_in = R_OUT - WALL;
     let critical = 1540.0 / 1700.0 * R_OUT;
-    let rays = lumen_rays();
+    let rays = lumen_rays(true);
     // Refraction bends every ray off the axis; a tunnelled ray keeps its
     // direction and resumes on the inner surface on the radius through its
     // hit, at offset `b·r_in/R`.
@@ -72,4 +73,15 @@ fn rays_beyond_the_critical_offset_tunnel_into_a_thin_lumen() {
         .map(|(b, _)| b * R_OUT / r_in)
         .fold(0.0, f64::max);
     assert!(widest > 0.99 * R_OUT, "widest {widest}");
+}
+
+#[test]
+fn without_tunnelling_every_lumen_ray_is_refracted() {
+    // The default: the wall reflects totally beyond its critical angle, so no
+    // ray reaches the lumen unbent off the axis.
+    let vertical = lumen_rays(false)
+        .iter()
+        .filter(|(b, d)| *b > 1e-6 && (d[2] - 1.0).abs() < 1e-12)
+        .count();
+    assert_eq!(vertical, 0);
 }

@@ -239,11 +239,10 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             );
             if f.tir {
                 // Beyond the critical angle only a thin layer with this medium
-                // on its far side lets the line through (`thin_layer`): it
-                // resumes on the far surface, the stack as it was.
-                let d = entering
-                    .then(|| st.geometry.layer_thickness(hit.object))
-                    .flatten()?;
+                // on its far side lets the line through, where the scene asks
+                // for it (`thin_layer`): it resumes on the far surface, the
+                // stack as it was.
+                let d = st.tunnelling_layer(hit.object, entering)?;
                 let t2 = frustrated_transmission(
                     cos_i,
                     medium.sound_speed,

@@ -116,10 +116,8 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         // Step 5b: split into the reflected and the transmitted continuation.
         // Entering a layer (a tube's wall, a slab) whose far side holds the
         // medium the branch is in, a wave beyond the critical angle tunnels
-        // through it in part (`thin_layer`).
-        let layer_m = entering
-            .then(|| st.geometry.layer_thickness(hit.object))
-            .flatten();
+        // through it in part where the scene asks for it (`thin_layer`).
+        let layer_m = st.tunnelling_layer(hit.object, entering);
         let layer = layer_m.map(|thickness_m| Layer {
             thickness_m,
             frequency_hz: st.center_frequency,

@@ -35,7 +35,8 @@
 //!    normal (GGX) and **split**: the reflected and the transmitted continuation
 //!    are both traced, each with its own weight (see [`crate::ggx::Interface::scatter`];
 //!    the paper's `R²` choice would make the fixed-seed estimate jump in the
-//!    parameters). The transmitted branch updates the medium stack. Entering a
+//!    parameters). The transmitted branch updates the medium stack. With
+//!    `acquisition.thin_layer_tunnelling`, entering a
 //!    thin layer (a tube's wall, a slab) beyond its critical angle, the
 //!    transmitted branch is the wave that tunnels through it
 //!    ([`crate::thin_layer`]): it resumes on the far surface, in the medium it
@@ -85,7 +86,8 @@
 //! straight segment to it is traced through the scene multiplying the Fresnel
 //! transmission coefficient of every boundary crossed (refraction is **ignored**
 //! on the connection, as in the paper; total internal reflection blocks it,
-//! except at a thin layer, which passes `|T|` of [`crate::thin_layer`]) and
+//! except at a thin layer where the scene asks for tunnelling, which passes
+//! `|T|` of [`crate::thin_layer`]) and
 //! the attenuation of every medium; time accumulates `length / c` per medium.
 
 mod arrival;

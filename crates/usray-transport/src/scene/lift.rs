@@ -152,9 +152,22 @@ pub struct SceneT<T> {
     /// The transmit aperture's edge waves (`acquisition.edge_waves`; `None`:
     /// not modelled).
     pub edge_waves: Option<EdgeWaves<T>>,
+    /// Thin layers let a wave beyond their critical angle tunnel through
+    /// (`acquisition.thin_layer_tunnelling`; [`crate::thin_layer`]).
+    pub thin_layer_tunnelling: bool,
 }
 
 impl<T: Real> SceneT<T> {
+    /// The thickness of object `object` where a wave entering it beyond the
+    /// critical angle tunnels through ([`crate::thin_layer`]): a layer's
+    /// ([`usray_geometry::Geometry::layer_thickness`]) when the scene asks for
+    /// tunnelling and the wave enters it; `None` otherwise.
+    pub fn tunnelling_layer(&self, object: usize, entering: bool) -> Option<T> {
+        (self.thin_layer_tunnelling && entering)
+            .then(|| self.geometry.layer_thickness(object))
+            .flatten()
+    }
+
     /// What an element receives of a direction's neighbourhood, seen from
     /// squared distance `r2` (m²) at cosine `cos_e` to its normal: its solid
     /// angle `w h cos θ_e / r²` (sr) in 3-D, its angle `w cos θ_e / r` (rad) in
@@ -396,6 +409,7 @@ impl Scene {
             emission: self.acquisition.emission,
             planar,
             edge_waves,
+            thin_layer_tunnelling: self.acquisition.thin_layer_tunnelling,
         })
     }
 

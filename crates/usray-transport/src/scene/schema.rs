@@ -155,6 +155,15 @@ pub struct Acquisition {
     /// diagnosis's ray counts their Monte Carlo noise dominates the log image.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub edge_waves: bool,
+    /// Whether a thin layer (a tube's wall, a slab) lets the part of a wave
+    /// beyond its critical angle tunnel through it (frustrated total
+    /// reflection; `thin_layer`) instead of reflecting it totally. Off unless
+    /// asked for: it brings a thin wall's lumen to a full-wave solver's level,
+    /// but without the wave guided along the wall that the default bounce
+    /// limit cuts off, the diagnosis names more false effects on full-wave
+    /// rings with it (`docs/diagnosis.md`, Known limits).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub thin_layer_tunnelling: bool,
     /// How an element's rays draw their random numbers (default `"stratified"`).
     #[serde(default)]
     pub sampler: Sampler,
