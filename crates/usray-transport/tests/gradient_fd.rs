@@ -261,6 +261,18 @@ fn tunnelling_through_a_thin_wall_matches_finite_differences() {
         ],
     );
     assert_tight("2-D thin fast wall", &r);
+    // The scene does tunnel: without the setting its channels differ.
+    let mut off = scene.clone();
+    off.acquisition.thin_layer_tunnelling = false;
+    let opts = RenderOptions {
+        rays_per_element: Some(4),
+        ..Default::default()
+    };
+    let (a, b) = (
+        render(&scene, &opts).unwrap().0,
+        render(&off, &opts).unwrap().0,
+    );
+    assert!(a.samples != b.samples, "no ray tunnelled");
 }
 
 #[test]

@@ -117,11 +117,12 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
         // Entering a layer (a tube's wall, a slab) whose far side holds the
         // medium the branch is in, a wave beyond the critical angle tunnels
         // through it in part where the scene asks for it (`thin_layer`).
-        let layer_m = st.tunnelling_layer(hit.object, entering);
-        let layer = layer_m.map(|thickness_m| Layer {
-            thickness_m,
-            frequency_hz: st.center_frequency,
-        });
+        let layer = st
+            .tunnelling_layer(hit.object, entering)
+            .map(|thickness_m| Layer {
+                thickness_m,
+                frequency_hz: st.center_frequency,
+            });
         let Some(s) = iface.scatter_through(
             wi,
             n_inc,
@@ -147,8 +148,8 @@ impl<T: Real, F: FnMut(Deposit<T>), C: FnMut(&Ray<T>, f64, f64)> PathCtx<'_, T, 
             // thickness along the inward normal, in the medium it came from
             // (crossing the wall in and out leaves the stack as it was); the
             // evanescent crossing takes no time and leaves its tube as it was.
-            let origin = match layer_m.filter(|_| tunnelled) {
-                Some(d) => hit.point - n_inc * d,
+            let origin = match layer.filter(|_| tunnelled) {
+                Some(l) => hit.point - n_inc * l.thickness_m,
                 None => hit.point,
             };
             let spread = if tunnelled {
