@@ -218,3 +218,55 @@ fn report_lists_significant_refits_within_their_tolerance() {
     rounds[0].effects[0].excess_spatial_std = Some(0.05);
     assert!(!markdown(&rounds).contains(HEAD));
 }
+
+/// Section 1 sets each calibrated parameter beside the scene's value, and
+/// points out those the calibration moved by more than a tenth, only those.
+#[test]
+fn report_points_out_calibrated_parameters_far_from_the_scene() {
+    let (scene, measured, mut rounds) = diagnosed();
+    rounds.truncate(1);
+    let markdown = |rounds: &[Diagnosis]| {
+        Report {
+            rounds,
+            scene: &scene,
+            scene_path: Path::new("tiny.toml"),
+            measured_path: Path::new("measured.npy"),
+            measured: &measured,
+            wall_s: 1.0,
+            dimensions_note: None,
+        }
+        .markdown()
+        .unwrap()
+    };
+    const HEAD: &str = "**Far from your scene's value:**";
+    let path = rounds[0].calibrated.params.keys().next().unwrap().clone();
+    let given = scene.get(&scene.key(&path).unwrap()).unwrap();
+    assert!(given != 0.0, "{path} = 0");
+    for (p, _) in rounds[0].calibrated.params.clone() {
+        let g = scene.get(&scene.key(&p).unwrap()).unwrap();
+        rounds[0].calibrated.params.insert(p, g);
+    }
+    let md = markdown(&rounds);
+    assert!(!md.contains(HEAD), "{md}");
+    assert!(
+        md.contains(&format!("| `{path}` | {given:.6e} | {given:.6e} | +0% |")),
+        "{md}"
+    );
+
+    rounds[0]
+        .calibrated
+        .params
+        .insert(path.clone(), 1.5 * given);
+    let md = markdown(&rounds);
+    assert!(md.contains(HEAD), "{md}");
+    assert!(
+        md.contains(&format!("`{path}` {given:.3} → {:.3} (+50%)", 1.5 * given)),
+        "{md}"
+    );
+    // A tenth or less is not pointed out.
+    rounds[0]
+        .calibrated
+        .params
+        .insert(path.clone(), 1.09 * given);
+    assert!(!markdown(&rounds).contains(HEAD));
+}

@@ -264,11 +264,35 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     writeln!(r, "## 1. Calibrated base model\n")?;
     writeln!(
         r,
-        "| parameter | value | ± (Monte Carlo spread) |\n|---|---|---|"
+        "| parameter | your scene | calibrated | change | ± (Monte Carlo spread) |\n|---|---|---|---|---|"
     )?;
     for (p, v) in &d.calibrated.params {
         let std = d.calibrated.params_std.get(p).copied().flatten();
-        writeln!(r, "| `{p}` | {v:.6e} | {} |", std_text(std))?;
+        let (given, change) = match scene_value(base, p) {
+            Some(g) => (
+                format!("{g:.6e}"),
+                or_dash(relative_change(g, *v), |c| format!("{:+.0}%", 100.0 * c)),
+            ),
+            None => ("—".into(), "—".into()),
+        };
+        writeln!(
+            r,
+            "| `{p}` | {given} | {v:.6e} | {change} | {} |",
+            std_text(std)
+        )?;
+    }
+    let far: Vec<String> = d
+        .calibrated
+        .params
+        .iter()
+        .filter_map(|(p, v)| {
+            let g = scene_value(base, p)?;
+            let c = relative_change(g, *v).filter(|c| c.abs() > FAR_FROM_SCENE)?;
+            Some(format!("`{p}` {g:.3} → {v:.3} ({:+.0}%)", 100.0 * c))
+        })
+        .collect();
+    if !far.is_empty() {
+        writeln!(r, "\n**Far from your scene's value:** {}. A base parameter the calibration moves this far may be standing in for something the model lacks, an effect among the candidates included: every candidate is scored and refitted against the calibrated model, so an effect the calibration has absorbed shows no gain. If you know a value, hold it: give `--params` the other free parameters only (docs/diagnosis.md, \"Known limits\", has a measured case).", far.join("; "))?;
     }
     for (p, v) in &d.calibrated.params {
         let mirror = p.parse().ok().and_then(|k| impedance_mirror(base, &k, *v));
@@ -492,6 +516,20 @@ fn signed(v: f64) -> String {
 }
 
 /// A standard deviation, or why there is none.
+/// A calibrated base parameter further than this fraction from the scene's
+/// value is pointed out in the report (section 1).
+const FAR_FROM_SCENE: f64 = 0.1;
+
+/// The scene's own value of the parameter at `path`, if it names one.
+fn scene_value(scene: &Scene, path: &str) -> Option<f64> {
+    scene.get(&scene.key(path).ok()?).ok()
+}
+
+/// `(calibrated − given)/|given|`, `None` where the scene's value is 0.
+fn relative_change(given: f64, calibrated: f64) -> Option<f64> {
+    (given != 0.0).then(|| (calibrated - given) / given.abs())
+}
+
 fn std_text(std: Option<f64>) -> String {
     std.map_or("not determined".into(), |s| format!("{s:.2e}"))
 }
