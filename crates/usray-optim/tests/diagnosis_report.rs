@@ -41,6 +41,21 @@ fn diagnosed() -> (Scene, Vec<f64>, Vec<Diagnosis>) {
     (scene, measured, rounds)
 }
 
+/// The Markdown report of `rounds` of `tiny.toml` against `measured.npy`.
+fn markdown_of(scene: &Scene, measured: &[f64], rounds: &[Diagnosis]) -> String {
+    Report {
+        rounds,
+        scene,
+        scene_path: Path::new("tiny.toml"),
+        measured_path: Path::new("measured.npy"),
+        measured,
+        wall_s: 1.0,
+        dimensions_note: None,
+    }
+    .markdown()
+    .unwrap()
+}
+
 /// `Report::write` writes exactly `markdown()` and the pretty-printed `json()`;
 /// the JSON holds CONTRACT §5's keys in order and one summary per round, and
 /// the Markdown names the files and the verdict.
@@ -186,19 +201,7 @@ fn report_lists_significant_refits_within_their_tolerance() {
     let path = e.path.clone();
     (e.null, e.tolerance) = (Some(1.0), Some(0.1));
     (e.excess, e.excess_std, e.excess_spatial_std) = (Some(0.08), Some(0.004), Some(0.015));
-    let markdown = |rounds: &[Diagnosis]| {
-        Report {
-            rounds,
-            scene: &scene,
-            scene_path: Path::new("tiny.toml"),
-            measured_path: Path::new("measured.npy"),
-            measured: &measured,
-            wall_s: 1.0,
-            dimensions_note: None,
-        }
-        .markdown()
-        .unwrap()
-    };
+    let markdown = |rounds: &[Diagnosis]| markdown_of(&scene, &measured, rounds);
     const HEAD: &str = "**Significant, but too small to matter:**";
 
     rounds[0].effects[0].params.insert(path.clone(), 1.05);
@@ -225,19 +228,7 @@ fn report_lists_significant_refits_within_their_tolerance() {
 fn report_points_out_calibrated_parameters_far_from_the_scene() {
     let (scene, measured, mut rounds) = diagnosed();
     rounds.truncate(1);
-    let markdown = |rounds: &[Diagnosis]| {
-        Report {
-            rounds,
-            scene: &scene,
-            scene_path: Path::new("tiny.toml"),
-            measured_path: Path::new("measured.npy"),
-            measured: &measured,
-            wall_s: 1.0,
-            dimensions_note: None,
-        }
-        .markdown()
-        .unwrap()
-    };
+    let markdown = |rounds: &[Diagnosis]| markdown_of(&scene, &measured, rounds);
     const HEAD: &str = "**Far from your scene's value:**";
     let path = rounds[0].calibrated.params.keys().next().unwrap().clone();
     let given = scene.get(&scene.key(&path).unwrap()).unwrap();
