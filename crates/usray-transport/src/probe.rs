@@ -195,23 +195,51 @@ impl<T: Real> ReceiveLobe<T> {
 /// assert_eq!(d.eval(1.0, 0.0), 1.0);
 /// assert_eq!(d.eval(-0.5, 0.3), 0.0); // from behind the element
 /// ```
+///
+/// In a rigid baffle ([`ElementDirectivity::rigid_baffle`],
+/// `probe.receive_baffle = "rigid"`) the element receives the sinc alone: the
+/// directivity is then `sinc / cos α`, which cancels the obliquity `cos α`
+/// that every receiver measure carries ([`crate::scene::ReceiveBaffle`]).
+///
+/// ```
+/// # use usray_transport::probe::ElementDirectivity;
+/// let soft = ElementDirectivity::new(0.456);
+/// let rigid = ElementDirectivity::new(0.456).rigid_baffle();
+/// let (c, s) = (40f64.to_radians().cos(), 40f64.to_radians().sin());
+/// assert!((rigid.eval(c, s) * c - soft.eval(c, s)).abs() < 1e-15);
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct ElementDirectivity<T> {
     /// `π w / λ = π w f_c / c`, dimensionless.
     pi_width_over_wavelength: T,
+    /// The face in a rigid baffle: no obliquity.
+    rigid: bool,
 }
 
 impl<T: Real> ElementDirectivity<T> {
-    /// The directivity of an element `w/λ` = `width_over_wavelength` wide.
+    /// The directivity of an element `w/λ` = `width_over_wavelength` wide, in
+    /// a soft baffle.
     #[inline]
     pub fn new(width_over_wavelength: T) -> Self {
         Self {
             pi_width_over_wavelength: width_over_wavelength.scale(core::f64::consts::PI),
+            rigid: false,
+        }
+    }
+
+    /// The same element in a rigid baffle: [`ElementDirectivity::eval`]
+    /// divided by `cos α`.
+    #[inline]
+    pub fn rigid_baffle(self) -> Self {
+        Self {
+            rigid: true,
+            ..self
         }
     }
 
     /// `sinc(π w s / λ)` for an arrival at `cos_alpha` to the normal with
-    /// component `along_width` along the width; 0 from behind (`cos_alpha ≤ 0`).
+    /// component `along_width` along the width (divided by `cos_alpha` in a
+    /// rigid baffle); 0 from behind (`cos_alpha ≤ 0`).
     #[inline]
     pub fn eval(&self, cos_alpha: T, along_width: T) -> T {
         if cos_alpha.value() <= 0.0 {
@@ -219,10 +247,15 @@ impl<T: Real> ElementDirectivity<T> {
         }
         let x = self.pi_width_over_wavelength * along_width;
         // sin x / x, by its Taylor series where the quotient loses digits.
-        if x.value().abs() < 1e-4 {
+        let sinc = if x.value().abs() < 1e-4 {
             T::one() - x * x * T::from_f64(1.0 / 6.0)
         } else {
             x.sin() / x
+        };
+        if self.rigid {
+            sinc / cos_alpha
+        } else {
+            sinc
         }
     }
 }

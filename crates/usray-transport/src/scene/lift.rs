@@ -1,7 +1,7 @@
 //! The numeric state of a scene in any `T: Real`: what the tracer reads.
 
 use super::key::{Field, ParamKey};
-use super::{Emission, ReceiveDirectivity, Scene, SceneError, ShapeKind};
+use super::{Emission, ReceiveBaffle, ReceiveDirectivity, Scene, SceneError, ShapeKind};
 use crate::integrator::EdgeWaves;
 use crate::probe::{ElementDirectivity, ReceiveLobe, Receiver};
 use std::sync::Arc;
@@ -347,9 +347,16 @@ impl Scene {
         let (center_frequency, cycles) = (probe(Field::CenterFrequency), probe(Field::Cycles));
         let array = self.array_geometry_t(get);
         let receiver = match self.probe.receive_model() {
-            ReceiveDirectivity::Element => Receiver::Element(ElementDirectivity::new(
-                array.element_width_m * center_frequency / get(ParamKey::medium(Field::SoundSpeed)),
-            )),
+            ReceiveDirectivity::Element => {
+                let d = ElementDirectivity::new(
+                    array.element_width_m * center_frequency
+                        / get(ParamKey::medium(Field::SoundSpeed)),
+                );
+                Receiver::Element(match self.probe.receive_baffle.unwrap_or_default() {
+                    ReceiveBaffle::Soft => d,
+                    ReceiveBaffle::Rigid => d.rigid_baffle(),
+                })
+            }
             ReceiveDirectivity::Lobe => {
                 // An angle the scene gives is a parameter; one it leaves out
                 // is the lobe's default (`Probe::lobe_deg`).

@@ -19,7 +19,7 @@ pub use key::{Field, ImagingRole, Owner, ParamGroup, ParamKey};
 pub use lift::{LumenT, MaterialT, ObjectT, SceneT};
 pub use schema::{
     limits, Acquisition, Dimensions, Emission, Imaging, Material, Medium, Object, Probe,
-    ReceiveDirectivity, Sampler, ShapeKind, TransmitSpec,
+    ReceiveBaffle, ReceiveDirectivity, Sampler, ShapeKind, TransmitSpec,
 };
 
 use std::collections::BTreeMap;

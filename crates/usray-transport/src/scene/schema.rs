@@ -44,6 +44,11 @@ pub struct Probe {
     /// element's own ([`Probe::receive_model`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub receive_directivity: Option<ReceiveDirectivity>,
+    /// How the element's face meets an oblique echo ([`ReceiveBaffle`]):
+    /// `"soft"` (the default) or `"rigid"`; only with the element's own
+    /// directivity.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub receive_baffle: Option<ReceiveBaffle>,
     /// Main lobe of the paper's receive lobe, degrees (paper eq. `cutoff`,
     /// `α_m`); 5° when the lobe is asked for without it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -90,6 +95,31 @@ pub enum ReceiveDirectivity {
     /// The paper's lobe (eq. `cutoff`): 1 inside `main_lobe_deg`, falling
     /// linearly to 0 at `cutoff_deg`.
     Lobe,
+}
+
+/// The baffle of an element's face in receive (`probe.receive_baffle`), with
+/// the element's own directivity: whether an echo arriving at `α` to the
+/// normal is received with the obliquity `cos α` of the element's projected
+/// width.
+///
+/// A strip in a soft (pressure-release) baffle receives
+/// `cos α · sinc(π w sin α / λ)`, in a rigid one `sinc(π w sin α / λ)`
+/// (Selfridge, Kino & Khuri-Yakub, Appl. Phys. Lett. 37, 1980, eqs. 4–5).
+/// Field II and PyMUST use the soft baffle, the default. An element that
+/// averages the pressure over its face, as k-Wave's sensor elements do, has
+/// no obliquity: the rigid baffle. On the k-Wave ring g1 at 0° (a grid 16
+/// points per wavelength), the end elements receive the near wall's echo
+/// 1.7 dB below the centre element; traced in 2-D the model gives 3.4 dB with
+/// the soft baffle and 1.6 dB with the rigid one (`docs/diagnosis.md`,
+/// "Receive directivity").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReceiveBaffle {
+    /// `cos α · sinc(π w sin α / λ)` (the default).
+    #[default]
+    Soft,
+    /// `sinc(π w sin α / λ)`: the pressure averaged over the face.
+    Rigid,
 }
 
 impl Probe {
@@ -599,6 +629,13 @@ pub(super) fn validate(s: &Scene) -> Result<(), SceneError> {
                 }
             }
         }
+    }
+    if p.receive_baffle.is_some() && p.receive_model() == ReceiveDirectivity::Lobe {
+        return err(
+            "probe.receive_baffle",
+            "applies only to the element's own directivity, not to the paper's lobe: \
+             drop it, or drop the lobe's angles",
+        );
     }
     // 4. Acquisition.
     let a = &s.acquisition;
