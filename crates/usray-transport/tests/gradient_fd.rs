@@ -283,18 +283,12 @@ fn element_directivity_matches_finite_differences() {
     // In 3-D and in 2-D; tolerances as above. The width's step is rel 1e-7
     // (the directivity is smooth in it; at 1e-9, 0.27 pm, FD roundoff gave
     // 8e-5, at 1e-7 4e-7).
-    let no_lobe = ("main_lobe_deg = 5.0\ncutoff_deg = 60.0\n", "");
-    let planar = (
-        "emission = \"plane_wave\"",
-        "emission = \"plane_wave\"\ndimensions = 2",
-    );
     let params = [
         ("probe.element_width_m", 1e-7),
         ("probe.center_frequency_hz", 1e-7),
         ("medium.sound_speed_m_s", 1e-9),
     ];
-    for (what, extra) in [("3-D", vec![no_lobe]), ("2-D", vec![no_lobe, planar])] {
-        let scene = scene_0deg("cylinder.toml", CYL_ANGLES, &extra);
+    cylinder_in_3d_and_2d((LOBE_LINES, ""), |what, scene| {
         assert_eq!(
             scene.probe.receive_model(),
             usray_transport::scene::ReceiveDirectivity::Element
@@ -303,6 +297,21 @@ fn element_directivity_matches_finite_differences() {
             &format!("{what} element directivity"),
             &check(&scene, &params),
         );
+    });
+}
+
+/// The cylinder scene's lines of the paper's receive lobe.
+const LOBE_LINES: &str = "main_lobe_deg = 5.0\ncutoff_deg = 60.0\n";
+
+/// `f(what, scene)` for the cylinder scene at 0° with `change`, in 3-D and
+/// then in 2-D.
+fn cylinder_in_3d_and_2d(change: (&str, &str), mut f: impl FnMut(&str, Scene)) {
+    let planar = (
+        "emission = \"plane_wave\"",
+        "emission = \"plane_wave\"\ndimensions = 2",
+    );
+    for (what, extra) in [("3-D", vec![change]), ("2-D", vec![change, planar])] {
+        f(what, scene_0deg("cylinder.toml", CYL_ANGLES, &extra));
     }
 }
 
@@ -313,25 +322,17 @@ fn rigid_baffle_matches_finite_differences() {
     // element positions (the pitch) and the echo's origin (the radius). In
     // 3-D and in 2-D; the steps of `SAMPLING_PARAMS` and of the element's
     // directivity (at 1e-7 the pitch's FD error was 3.5e-3).
-    let rigid = (
-        "main_lobe_deg = 5.0\ncutoff_deg = 60.0\n",
-        "receive_baffle = \"rigid\"\n",
-    );
-    let planar = (
-        "emission = \"plane_wave\"",
-        "emission = \"plane_wave\"\ndimensions = 2",
-    );
     let params = [
         ("probe.pitch_m", 1e-9),
         ("probe.element_width_m", 1e-7),
         ("objects.cylinder.radius_m", 1e-9),
     ];
-    for (what, extra) in [("3-D", vec![rigid]), ("2-D", vec![rigid, planar])] {
-        let scene = scene_0deg("cylinder.toml", CYL_ANGLES, &extra);
+    let rigid = (LOBE_LINES, "receive_baffle = \"rigid\"\n");
+    cylinder_in_3d_and_2d(rigid, |what, scene| {
         assert_eq!(
             scene.probe.receive_baffle,
             Some(usray_transport::scene::ReceiveBaffle::Rigid)
         );
         assert_tight(&format!("{what} rigid baffle"), &check(&scene, &params));
-    }
+    });
 }

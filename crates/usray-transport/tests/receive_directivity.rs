@@ -41,6 +41,17 @@ fn scene(planar: bool, lobe: &str) -> Scene {
     Scene::from_toml_str(&format!("{text}\n{body}"), "<directivity>", ".").unwrap()
 }
 
+/// Per seed (1 to 8) and element, the rod's echo in `other` over its echo in
+/// `base`: the same paths, weighed by the two receivers.
+fn seed_ratios(base: &Scene, other: &Scene) -> Vec<Vec<f64>> {
+    (1..=8)
+        .map(|seed| {
+            let (b, o) = (element_echoes(base, seed), element_echoes(other, seed));
+            b.iter().zip(&o).map(|(b, o)| o / b).collect()
+        })
+        .collect()
+}
+
 #[test]
 fn a_rods_echo_on_each_element_follows_the_elements_sinc() {
     let w_over_lambda = 0.27e-3 * F_C / 1540.0;
@@ -49,16 +60,7 @@ fn a_rods_echo_on_each_element_follows_the_elements_sinc() {
             scene(planar, "main_lobe_deg = 89.9\ncutoff_deg = 90.0\n"),
             scene(planar, ""),
         );
-        // Per seed and element, the ratio of the two renders (same paths).
-        let ratios: Vec<Vec<f64>> = (1..=8)
-            .map(|seed| {
-                let (flat, sinc) = (
-                    element_echoes(&flat_scene, seed),
-                    element_echoes(&sinc_scene, seed),
-                );
-                flat.iter().zip(&sinc).map(|(f, s)| s / f).collect()
-            })
-            .collect();
+        let ratios = seed_ratios(&flat_scene, &sinc_scene);
         let mut below_zero = 0;
         for e in 0..32 {
             let x_e = (e as f64 - 15.5) * 0.3e-3;
@@ -98,15 +100,7 @@ fn a_rigid_baffle_drops_the_obliquity_element_by_element() {
             scene(planar, ""),
             scene(planar, "receive_baffle = \"rigid\"\n"),
         );
-        let ratios: Vec<Vec<f64>> = (1..=8)
-            .map(|seed| {
-                let (soft, rigid) = (
-                    element_echoes(&soft_scene, seed),
-                    element_echoes(&rigid_scene, seed),
-                );
-                soft.iter().zip(&rigid).map(|(s, r)| r / s).collect()
-            })
-            .collect();
+        let ratios = seed_ratios(&soft_scene, &rigid_scene);
         let mut oblique = 0;
         for e in 0..32 {
             let x_e = (e as f64 - 15.5) * 0.3e-3;
