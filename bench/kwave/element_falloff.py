@@ -1,7 +1,7 @@
 """How the ring g1's wall echoes fall off across the array at 0 deg: per element, the envelope's
 peak in the near-wall (13.5-17.5 us) and far-wall (26-30 us) windows, dB against the centre
-element's (31), for k-Wave runs (g1_none minus ref1480, as grid_check.py makes them) and usray
-renders (their 0 deg transmit). docs/diagnosis.md, "Receive directivity".
+element's (31), for k-Wave runs (g1_none minus ref1480, grid_check.py's `scattered`) and usray
+renders (their 0 deg transmit). docs/diagnosis.md, "The element's baffle".
 
     python3 element_falloff.py /tmp/kw1/raw /tmp/kw2/raw RENDER_SOFT/channels.npy RENDER_RIGID/channels.npy
 
@@ -9,16 +9,13 @@ k-Wave directories (with g1_none_+0.npz and ref1480_+0.npz) and .npy channel fil
 import sys
 import numpy as np
 from scipy.signal import hilbert
+from grid_check import FS, scattered
 
-FS, T_LEAD, T_END, N = 40e6, 2.5e-6, 50e-6, 1900
+N = 1900                                          # samples kept, as grid_check.py keeps them
 
 
 def kwave(raw_dir):
-    runs = [np.load(f"{raw_dir}/{c}_+0.npz")["rf"].astype(float) for c in ("g1_none", "ref1480")]
-    d = runs[0] - runs[1]
-    dt = T_END / d.shape[1]
-    dec, lead = int(round(1 / (FS * dt))), int(round(T_LEAD / dt))
-    return d[:, lead::dec][:, :N]
+    return scattered(raw_dir)[0]
 
 
 def usray(path):

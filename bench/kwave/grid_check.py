@@ -37,18 +37,23 @@ def centroid_mhz(x, t0, z):
     return np.mean(out) / 1e6
 
 
-series = [("grid", *scattered(sys.argv[1])), ("finer", *scattered(sys.argv[2]))]
-if len(sys.argv) > 3:
-    series.append(("usray", np.load(sys.argv[3])[1].astype(float), 0.0))   # its 0 deg transmit
-for el in (31, 16, 4):
-    envs = []
-    for _, x, t0 in series:
-        t = (t0 + np.arange(x.shape[1]) / FS) * 1e6
-        envs.append((t, 20 * np.log10(np.abs(hilbert(x[el])) + 1e-12)))
-    ref = envs[0][1].max()
-    print(f"element {el}: " + ", ".join(f"{n} peak {e[1].max() - ref:+.1f} dB" for (n, _, _), e in zip(series, envs)))
-    for tb in np.arange(14.0, 34.0, 1.0):
-        row = [e[1][(e[0] >= tb) & (e[0] < tb + 1)].max() - ref for e in envs]
-        print(f"  {tb:4.0f}-{tb + 1:.0f} us " + "  ".join(f"{n} {v:6.1f}" for (n, _, _), v in zip(series, row)))
-for n, x, t0 in series:
-    print(f"{n}: wall echoes centred at {centroid_mhz(x, t0, 0.011):.3f} (near), {centroid_mhz(x, t0, 0.021):.3f} MHz (far)")
+def main():
+    series = [("grid", *scattered(sys.argv[1])), ("finer", *scattered(sys.argv[2]))]
+    if len(sys.argv) > 3:
+        series.append(("usray", np.load(sys.argv[3])[1].astype(float), 0.0))   # its 0 deg transmit
+    for el in (31, 16, 4):
+        envs = []
+        for _, x, t0 in series:
+            t = (t0 + np.arange(x.shape[1]) / FS) * 1e6
+            envs.append((t, 20 * np.log10(np.abs(hilbert(x[el])) + 1e-12)))
+        ref = envs[0][1].max()
+        print(f"element {el}: " + ", ".join(f"{n} peak {e[1].max() - ref:+.1f} dB" for (n, _, _), e in zip(series, envs)))
+        for tb in np.arange(14.0, 34.0, 1.0):
+            row = [e[1][(e[0] >= tb) & (e[0] < tb + 1)].max() - ref for e in envs]
+            print(f"  {tb:4.0f}-{tb + 1:.0f} us " + "  ".join(f"{n} {v:6.1f}" for (n, _, _), v in zip(series, row)))
+    for n, x, t0 in series:
+        print(f"{n}: wall echoes centred at {centroid_mhz(x, t0, 0.011):.3f} (near), {centroid_mhz(x, t0, 0.021):.3f} MHz (far)")
+
+
+if __name__ == "__main__":
+    main()

@@ -266,31 +266,22 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         r,
         "| parameter | your scene | calibrated | change | ± (Monte Carlo spread) |\n|---|---|---|---|---|"
     )?;
+    let mut far = Vec::new();
     for (p, v) in &d.calibrated.params {
         let std = d.calibrated.params_std.get(p).copied().flatten();
-        let (given, change) = match scene_value(base, p) {
-            Some(g) => (
-                format!("{g:.6e}"),
-                or_dash(relative_change(g, *v), |c| format!("{:+.0}%", 100.0 * c)),
-            ),
-            None => ("—".into(), "—".into()),
-        };
+        let given = scene_value(base, p);
+        let change = given.and_then(|g| relative_change(g, *v));
+        if let (Some(g), Some(c)) = (given, change.filter(|c| c.abs() > FAR_FROM_SCENE)) {
+            far.push(format!("`{p}` {g:.3} → {v:.3} ({:+.0}%)", 100.0 * c));
+        }
         writeln!(
             r,
-            "| `{p}` | {given} | {v:.6e} | {change} | {} |",
+            "| `{p}` | {} | {v:.6e} | {} | {} |",
+            or_dash(given, |g| format!("{g:.6e}")),
+            or_dash(change, |c| format!("{:+.0}%", 100.0 * c)),
             std_text(std)
         )?;
     }
-    let far: Vec<String> = d
-        .calibrated
-        .params
-        .iter()
-        .filter_map(|(p, v)| {
-            let g = scene_value(base, p)?;
-            let c = relative_change(g, *v).filter(|c| c.abs() > FAR_FROM_SCENE)?;
-            Some(format!("`{p}` {g:.3} → {v:.3} ({:+.0}%)", 100.0 * c))
-        })
-        .collect();
     if !far.is_empty() {
         writeln!(r, "\n**Far from your scene's value:** {}. A base parameter the calibration moves this far may be standing in for something the model lacks, an effect among the candidates included: every candidate is scored and refitted against the calibrated model, so an effect the calibration has absorbed shows no gain. If you know a value, hold it: give `--params` the other free parameters only (docs/diagnosis.md, \"Known limits\", has a measured case).", far.join("; "))?;
     }
@@ -515,7 +506,6 @@ fn signed(v: f64) -> String {
     }
 }
 
-/// A standard deviation, or why there is none.
 /// A calibrated base parameter further than this fraction from the scene's
 /// value is pointed out in the report (section 1).
 const FAR_FROM_SCENE: f64 = 0.1;
@@ -530,6 +520,7 @@ fn relative_change(given: f64, calibrated: f64) -> Option<f64> {
     (given != 0.0).then(|| (calibrated - given) / given.abs())
 }
 
+/// A standard deviation, or why there is none.
 fn std_text(std: Option<f64>) -> String {
     std.map_or("not determined".into(), |s| format!("{s:.2e}"))
 }

@@ -111,7 +111,9 @@ pub enum ReceiveDirectivity {
 /// points per wavelength), the end elements receive the near wall's echo
 /// 1.7 dB below the centre element; traced in 2-D the model gives 3.4 dB with
 /// the soft baffle and 1.6 dB with the rigid one (`docs/diagnosis.md`,
-/// "Receive directivity").
+/// "The element's baffle"). The rigid baffle weighs an arrival by
+/// `1/cos α` against the ray density's `cos α`, so echoes near grazing carry
+/// more Monte Carlo variance.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ReceiveBaffle {
