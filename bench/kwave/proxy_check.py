@@ -16,8 +16,7 @@ import sys
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-OUT = sys.argv[1]
-USRAY = sys.argv[2] if len(sys.argv) > 2 else os.path.join(HERE, "..", "..", "target", "release", "usray")
+DEFAULT_USRAY = os.path.join(HERE, "..", "..", "target", "release", "usray")
 DATA = os.path.join(HERE, "data", "g1_atten.json")
 
 # name: (wall impedance MRayl, attenuation dB/(cm·MHz) in water and wall, roughness,
@@ -50,8 +49,8 @@ def scene(z, alpha, rough, radius, thick):
     return s
 
 
-def run(*args):
-    subprocess.run([USRAY, *args, "--quiet"], check=True, stdout=subprocess.DEVNULL)
+def run(usray, *args):
+    subprocess.run([usray, *args, "--quiet"], check=True, stdout=subprocess.DEVNULL)
 
 
 def loss(a, b, floor=0.0):
@@ -59,29 +58,36 @@ def loss(a, b, floor=0.0):
     return np.abs(d) + d * d
 
 
-os.makedirs(OUT, exist_ok=True)
-first = None
-for name, values in VARIANTS.items():
-    path = os.path.join(OUT, name + ".toml")
-    with open(path, "w") as f:
-        f.write(scene(*values))
-    run("render", path, "--out", os.path.join(OUT, name))
-    first = first or path
-run("beamform", DATA, "--scene", first, "--out", os.path.join(OUT, "measured"))
+def main():
+    out = sys.argv[1]
+    usray = sys.argv[2] if len(sys.argv) > 2 else DEFAULT_USRAY
+    os.makedirs(out, exist_ok=True)
+    first = None
+    for name, values in VARIANTS.items():
+        path = os.path.join(out, name + ".toml")
+        with open(path, "w") as f:
+            f.write(scene(*values))
+        run(usray, "render", path, "--out", os.path.join(out, name))
+        first = first or path
+    run(usray, "beamform", DATA, "--scene", first, "--out", os.path.join(out, "measured"))
 
-measured = np.load(os.path.join(OUT, "measured", "bmode.npy"))
-nz, nx = measured.shape
-z_mm = 8.0 + 0.2 * np.arange(nz)  # g1.toml's imaging grid: z from 8 mm, 0.2 mm pixels
-under = (z_mm >= 22.0) & (z_mm < 24.0)
-centre = slice(nx // 2 - 5, nx // 2 + 6)
-range_db = 60.0  # g1.toml's dynamic_range_db
-print("variant          loss    floor-45dB floor-35dB  22-24mm  level 22-24mm (dB)")
-for name in ["measured", *VARIANTS]:
-    img = np.load(os.path.join(OUT, name, "bmode.npy"))
-    level = np.mean(img[under][:, centre]) * range_db - range_db
-    if name == "measured":
-        print(f"{name:15s} {'':>7s} {'':>10s} {'':>10s} {'':>8s}  {level:6.1f}")
-        continue
-    full = loss(img, measured)
-    print(f"{name:15s} {full.mean():.4f} {loss(img, measured, 1 - 45 / range_db).mean():10.4f} "
-          f"{loss(img, measured, 1 - 35 / range_db).mean():10.4f} {full[under].sum() / full.size:8.4f}  {level:6.1f}")
+    measured = np.load(os.path.join(out, "measured", "bmode.npy"))
+    nz, nx = measured.shape
+    z_mm = 8.0 + 0.2 * np.arange(nz)  # g1.toml's imaging grid: z from 8 mm, 0.2 mm pixels
+    under = (z_mm >= 22.0) & (z_mm < 24.0)
+    centre = slice(nx // 2 - 5, nx // 2 + 6)
+    range_db = 60.0  # g1.toml's dynamic_range_db
+    print("variant          loss    floor-45dB floor-35dB  22-24mm  level 22-24mm (dB)")
+    for name in ["measured", *VARIANTS]:
+        img = np.load(os.path.join(out, name, "bmode.npy"))
+        level = np.mean(img[under][:, centre]) * range_db - range_db
+        if name == "measured":
+            print(f"{name:15s} {'':>7s} {'':>10s} {'':>10s} {'':>8s}  {level:6.1f}")
+            continue
+        full = loss(img, measured)
+        print(f"{name:15s} {full.mean():.4f} {loss(img, measured, 1 - 45 / range_db).mean():10.4f} "
+              f"{loss(img, measured, 1 - 35 / range_db).mean():10.4f} {full[under].sum() / full.size:8.4f}  {level:6.1f}")
+
+
+if __name__ == "__main__":
+    main()
