@@ -61,6 +61,12 @@ def main():
     args = p.parse_args()
 
     os.makedirs(args.out, exist_ok=True)
+    # The data on the scene's imaging grid (every point of the sweep shares it).
+    grid = os.path.join(args.out, "measured.toml")
+    with open(grid, "w") as f:
+        f.write(model_scene(args, args.impedance[0], args.roughness[0]))
+    run(args.usray, "beamform", args.data, "--scene", grid, "--out", os.path.join(args.out, "measured"))
+    measured = np.load(os.path.join(args.out, "measured", "bmode.npy"))
     table = np.zeros((len(args.impedance), len(args.roughness)))
     for i, z in enumerate(args.impedance):
         for j, r in enumerate(args.roughness):
@@ -68,10 +74,6 @@ def main():
             with open(name + ".toml", "w") as f:
                 f.write(model_scene(args, z, r))
             run(args.usray, "render", name + ".toml", "--out", name)
-            if i == 0 and j == 0:
-                run(args.usray, "beamform", args.data, "--scene", name + ".toml",
-                    "--out", os.path.join(args.out, "measured"))
-                measured = np.load(os.path.join(args.out, "measured", "bmode.npy"))
             table[i, j] = loss(np.load(os.path.join(name, "bmode.npy")), measured).mean()
     print("impedance \\ roughness " + " ".join(f"{r:>7.3f}" for r in args.roughness))
     for z, row in zip(args.impedance, table):
