@@ -45,9 +45,10 @@ pub struct DiagnoseOptions {
     /// Use the paired loss ([`crate::Objective::pair_seeds`]) everywhere: the
     /// calibration, scoring, refits and held-out losses render twice with
     /// independent seeds (the loss's ℓ2 term is then unbiased in the
-    /// simulation's Monte Carlo variance, so no fit gains by a quieter
-    /// simulation), and the noise level is the paired loss of the calibrated
-    /// model against its own image. Default `false`: the paper's one-render
+    /// simulation's Monte Carlo variance, so a fit gains far less by a
+    /// quieter simulation: the paired ℓ1 term keeps 29% of the one-render
+    /// bias), and the noise level is the paired loss of the calibrated model
+    /// against its own image. Default `false`: the paper's one-render
     /// loss, at half the renders.
     pub paired: bool,
     /// Measured data held out from the fit — other frames of the same
