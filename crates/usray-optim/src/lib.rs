@@ -45,6 +45,8 @@ mod objective;
 mod params;
 mod reference;
 mod spread;
+#[cfg(test)]
+mod test_noise;
 
 pub use adam::{Adam, AdamGroup, AdamState};
 pub use comparison::{noise_floor, Comparison, MAX_NOISE_FLOOR, MIN_DARK_SHARE, MODEL_DARK_GREY};

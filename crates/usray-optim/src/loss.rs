@@ -189,31 +189,6 @@ mod tests {
         assert_eq!(loss.paired_value(&a, &b, &r), loss.paired_value(&b, &a, &r));
     }
 
-    /// Standard normal draws from a fixed sequence (SplitMix64, Box–Muller).
-    fn normals(n: usize, mut state: u64) -> Vec<f64> {
-        let mut uniform = || {
-            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = state;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-        };
-        (0..n)
-            .map(|_| {
-                let (u1, u2) = (uniform().max(f64::MIN_POSITIVE), uniform());
-                (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-            })
-            .collect()
-    }
-
-    /// Mean and standard error of per-pixel terms.
-    fn mean_se(terms: &[f64]) -> (f64, f64) {
-        let n = terms.len() as f64;
-        let m = terms.iter().sum::<f64>() / n;
-        let var = terms.iter().map(|t| (t - m).powi(2)).sum::<f64>() / (n - 1.0);
-        (m, (var / n).sqrt())
-    }
-
     /// Two renders `a = μ + σε₁`, `b = μ + σε₂` of a model whose mean image `μ`
     /// lies a known distance from the reference: the paired ℓ2 loss estimates
     /// the squared distance `mean (μ − r)²` without the noise's `σ²` (within
@@ -223,8 +198,15 @@ mod tests {
     /// 29% of the one-render bias `E|ε|`, which still favours a quieter model.
     #[test]
     fn paired_l2_is_unbiased_and_paired_l1_is_not() {
+        use crate::diagnosis::mean_and_se;
+        use crate::test_noise::normal;
         let (n, sigma) = (200_000, 0.1);
-        let (e1, e2) = (normals(n, 1), normals(n, 2));
+        let e1: Vec<f64> = (0..n as u64).map(normal).collect();
+        let e2: Vec<f64> = (n as u64..2 * n as u64).map(normal).collect();
+        let mean_se = |terms: &[f64]| {
+            let (m, se) = mean_and_se(terms);
+            (m, se.unwrap())
+        };
         let r: Vec<f64> = (0..n)
             .map(|u| 0.5 + 0.2 * ((u as f64) * 0.01).sin())
             .collect();
@@ -245,11 +227,14 @@ mod tests {
             (m - truth).abs() < 5.0 * se,
             "paired ℓ2 {m} ± {se}, truth {truth}"
         );
-        // The one-render ℓ2 carries the noise's σ² on top.
-        let one = l2.value(&a, &r);
+        // The one-render ℓ2, `mean (a − r)²`, carries the noise's σ² on top.
+        let terms: Vec<f64> = (0..n).map(|u| (a[u] - r[u]).powi(2)).collect();
+        let (one, se) = mean_se(&terms);
+        assert!((l2.value(&a, &r) - one).abs() < 1e-12);
         assert!(
-            one - truth > 0.9 * sigma * sigma,
-            "one-render ℓ2 {one}, truth {truth}"
+            (one - truth - sigma * sigma).abs() < 5.0 * se,
+            "one-render ℓ2 {one} ± {se}, truth {truth} + σ² {}",
+            sigma * sigma
         );
         // The paired ℓ1 term on an exact model (μ = r).
         let l1 = L1L2 {

@@ -215,14 +215,7 @@ fn cholesky_solve(l: &[Vec<f64>], b: &[f64]) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use usray_transport::rng::mix64;
-
-    /// Standard normal deviates by Box–Muller from a counter-keyed hash.
-    fn normal(key: u64) -> f64 {
-        let u = |k: u64| ((mix64(k) >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
-        let (u1, u2) = (u(2 * key), u(2 * key + 1));
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
+    use crate::test_noise::normal;
 
     /// Linear model with white noise of variance σ²: the covariance of the
     /// least-squares estimate is `σ² (JᵀJ)⁻¹` (Bates & Watts eq. 1.6). The
