@@ -353,7 +353,7 @@ pub(crate) fn refit_leading(
             .null
             .and(e.params_std.get(&e.path).copied().flatten())
             .map(|spread| DETECTION_LIMIT_SPREADS * spread);
-        if e.near_null_bound() {
+        if e.within_detection_limit() {
             match absence_cost(c, &r.scene, &r.after_held, stage, held_data) {
                 Ok((cost, cost_std)) => {
                     e.absence_cost = Some(cost);

@@ -416,12 +416,14 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         let cost_std = e.absence_cost_std.unwrap_or(f64::NAN);
         let reading = if e.at_range_bound() {
             "not told from its absence: pressed against its null, it cannot be named"
+        } else if e.indistinct_from_null() {
+            "not told from its absence: its gain over the null refit is not shown to be its own (the base parameters refitted beside it may carry it), so it cannot be named"
         } else {
             "the effect is there, however small its value: it counts as inside its range"
         };
         writeln!(
             r,
-            "\n`{}` refitted to {} (`{}`), within 1% of its range from its null and within its limit of detection; switched back to its null, every other refitted value kept, the held-out loss rises by {cost:+.3} ± {cost_std:.3} of the calibrated loss: {reading}.",
+            "\n`{}` refitted to {} (`{}`), within its limit of detection of its null; switched back to its null, every other refitted value kept, the held-out loss rises by {cost:+.3} ± {cost_std:.3} of the calibrated loss: {reading}.",
             e.effect,
             short(*v),
             e.path

@@ -117,15 +117,17 @@ pub struct EffectResult {
     /// resolved departure matters). A refit within it is not named
     /// ([`EffectResult::within_tolerance`]).
     pub tolerance: Option<f64>,
-    /// Where the refit ended within 1% of the range's width from the bound
-    /// that is the effect's null, without clearing its limit of detection
-    /// ([`EffectResult::detection_limit`]): how much the held-out loss rises
+    /// Where the refit ended within its limit of detection of the effect's
+    /// null ([`EffectResult::detection_limit`],
+    /// [`EffectResult::within_detection_limit`]): how much the held-out loss rises
     /// when the effect parameter alone is set back to its null, every other
     /// refitted value kept, `(L_null − L_refit)/calibrated.loss_held_out` averaged over the
     /// held-out seeds. It tells an effect whose strength is small in its unit
     /// but plain in the image (a speckle strength of 0.005 whose speckle fills
     /// an object: the B-mode is logarithmic in it) from one that is absent
-    /// (absent elsewhere).
+    /// (absent elsewhere), and a refit whose gain is its own from one whose
+    /// base parameters, refitted beside it, carry the gain
+    /// ([`EffectResult::indistinct_from_null`]).
     pub absence_cost: Option<f64>,
     /// Standard error of [`EffectResult::absence_cost`]: the larger of its
     /// standard errors over the held-out seeds and over blocks of the image
@@ -246,15 +248,57 @@ impl EffectResult {
         }
     }
 
-    /// Whether the refit ended within 1% of the range's width from a bound
-    /// that is the effect's null without clearing its limit of detection:
-    /// where [`EffectResult::absence_cost`] is measured.
-    pub fn near_null_bound(&self) -> bool {
-        let [lo, hi] = self.range;
-        let margin = 0.01 * (hi - lo);
+    /// Whether the refit ended within its limit of detection of the effect's
+    /// null: where [`EffectResult::absence_cost`] is measured. `false`
+    /// without a null or a limit.
+    pub fn within_detection_limit(&self) -> bool {
         match (self.params.get(&self.path), self.null) {
-            (Some(&v), Some(null)) if null == lo || null == hi => {
-                (v - null).abs() <= margin && !self.beyond_detection_limit(null, v)
+            (Some(&v), Some(null)) => {
+                self.detection_limit.is_some() && !self.beyond_detection_limit(null, v)
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether these data cannot tell the refitted effect from its absence:
+    /// its value lies within its limit of detection of the null
+    /// ([`EffectResult::within_detection_limit`]) and switching it back to
+    /// the null, every other refitted value kept, does not cost the held-out
+    /// loss three standard errors ([`EffectResult::absence_cost`]). Such a
+    /// refit's gain over the null refit is not shown to be the effect's: the
+    /// base parameters, refitted beside a parameter that barely moved, may
+    /// carry it further than the null refit did (on a k-Wave ring, an element
+    /// 0.23 mm wide for 0.27, limit 0.055 mm). Not named
+    /// ([`super::name_effect`]). The test of
+    /// [`EffectResult::at_range_bound`] near a null that is a bound, applied
+    /// wherever the null lies.
+    ///
+    /// ```
+    /// # use std::collections::BTreeMap;
+    /// # use usray_optim::EffectResult;
+    /// let path = "probe.element_width_m".to_string();
+    /// let mut e = EffectResult {
+    ///     effect: "element_width".into(), path: path.clone(), score: 0.03,
+    ///     onset: 0.27e-3, range: [0.1e-3, 0.3e-3], null: Some(0.27e-3), gradient: 0.0,
+    ///     loss_onset: 1.0, loss_after: Some(0.9), shrink: Some(0.1), shrink_std: None,
+    ///     excess: Some(0.01), excess_std: Some(0.001), excess_spatial_std: Some(0.003),
+    ///     gap_explained: None, held_out_losses: vec![],
+    ///     params: BTreeMap::from([(path, 0.23e-3)]), params_std: BTreeMap::new(),
+    ///     detection_limit: Some(0.055e-3), tolerance: None, absence_cost: None,
+    ///     absence_cost_std: None, additivity: None, failed: None,
+    /// };
+    /// assert!(e.within_detection_limit() && e.indistinct_from_null());
+    /// (e.absence_cost, e.absence_cost_std) = (Some(0.002), Some(0.003));
+    /// assert!(e.indistinct_from_null()); // switching it off costs nothing…
+    /// (e.absence_cost, e.absence_cost_std) = (Some(0.012), Some(0.003));
+    /// assert!(!e.indistinct_from_null()); // …or four standard errors: its own
+    /// e.detection_limit = Some(0.02e-3);
+    /// assert!(!e.within_detection_limit()); // beyond its limit: resolved
+    /// ```
+    pub fn indistinct_from_null(&self) -> bool {
+        match (self.params.get(&self.path), self.null) {
+            (Some(&v), Some(null)) => {
+                self.within_detection_limit() && !self.detected_from(null, v)
             }
             _ => false,
         }

@@ -118,7 +118,10 @@ pub struct Verdict {
 /// small to matter to the image. How much
 /// of the gap it explains is reported beside it, not a condition: against data
 /// the model cannot reproduce exactly, a model-form residual stays whatever
-/// effect is added.
+/// effect is added. Nor may it be indistinct from its null
+/// ([`EffectResult::indistinct_from_null`]): within its limit of detection
+/// and costing nothing when switched back off, its gain is not shown to be
+/// its own.
 ///
 /// Among the qualifying refits, those whose held-out shrink comes within
 /// 0.05 of the largest tie (the data do not tell them apart), and
@@ -159,6 +162,15 @@ pub struct Verdict {
 /// (too_small.null, too_small.tolerance) = (Some(0.5), Some(0.05));
 /// too_small.params.insert("p".into(), 0.52);
 /// assert!(name_effect(&[too_small], true, &rule).is_none());
+/// // Nor one that these data cannot tell from its null (a value within its
+/// // limit of detection, whose switching off costs nothing).
+/// let mut indistinct = refit(0.3, 0.8, 0.7, 0.1);
+/// (indistinct.null, indistinct.detection_limit) = (Some(0.5), Some(0.1));
+/// indistinct.params.insert("p".into(), 0.55);
+/// (indistinct.absence_cost, indistinct.absence_cost_std) = (Some(0.01), Some(0.02));
+/// assert!(name_effect(&[indistinct.clone()], true, &rule).is_none());
+/// indistinct.absence_cost = Some(0.3); // switching it off costs 15 standard errors
+/// assert_eq!(name_effect(&[indistinct], true, &rule).unwrap().0, 0);
 /// // In a later round, a gain the first round did not foreshadow is no second effect.
 /// let mut jointly_only = refit(0.3, 0.3, 0.28, 0.05);
 /// jointly_only.additivity = Some(0.01);
@@ -177,6 +189,7 @@ pub fn name_effect(
             && additive
             && !e.at_range_bound()
             && !e.within_tolerance()
+            && !e.indistinct_from_null()
     };
     let shrink = |i: usize| refits[i].shrink.unwrap_or(f64::NEG_INFINITY);
     let qualified: Vec<usize> = (0..refits.len())
