@@ -297,9 +297,7 @@ impl EffectResult {
     /// ```
     pub fn indistinct_from_null(&self) -> bool {
         match (self.params.get(&self.path), self.null) {
-            (Some(&v), Some(null)) => {
-                self.within_detection_limit() && !self.detected_from(null, v)
-            }
+            (Some(&v), Some(null)) => self.within_detection_limit() && !self.detected_from(null, v),
             _ => false,
         }
     }
