@@ -419,7 +419,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         } else if e.indistinct_from_null() {
             "not told from its absence: its gain over the null refit is not shown to be its own (the base parameters refitted beside it may carry it), so it cannot be named"
         } else {
-            "the effect is there, however small its value: it counts as inside its range"
+            "the effect is there, however small its value"
         };
         writeln!(
             r,
