@@ -68,6 +68,10 @@ GEOMS = {
     # not tuned on afterwards (docs/diagnosis.md, tier (b)). A 4 mm ring off axis at 18 mm
     # with a 0.3 mm wall; a slower water, a stronger attenuation, a weaker gain.
     "g3": dict(centre=(-2.5e-3, 18e-3), r_out=4e-3),
+    # Held out too, and not a ring: a solid 3 mm disk of the wall's material (1600 m/s,
+    # 1.76 MRayl) off axis at 15 mm, which refracts what passes through it. Chosen, with its
+    # cases' magnitudes, before any diagnosis ran on it.
+    "g4": dict(centre=(1.5e-3, 15e-3), r_out=3e-3),
 }
 RING_C = GEOMS["g1"]["centre"]
 R_OUT = GEOMS["g1"]["r_out"]
@@ -112,6 +116,7 @@ CASES = {
     "refpulse": dict(wall=None, c_w=1480.0, alpha=0.0, speckle=False, ncyc=NCYC_LONG),
     "ref1450":  dict(wall=None, c_w=1450.0, alpha=0.0, speckle=False),
     "refatt07": dict(wall=None, c_w=1480.0, alpha=0.7, speckle=False),
+    "ref1500":  dict(wall=None, c_w=1500.0, alpha=0.0, speckle=False),
 }
 def ring_cases(g, wall, thick, speed, speed_ref, alpha, alpha_ref, gain_db_cm):
     """No effect and six effects on ring `g` modelled with a `wall` (m): a `thick` wall, water
@@ -132,6 +137,11 @@ for g in ("g1", "g2"):
     CASES.update(ring_cases(g, THIN, 0.9e-3, 1520.0, "ref1520", 0.5, "refatt", 3.0))
 G3_WALL = 0.3e-3               # g3's modelled wall (bench/kwave/g3.toml)
 CASES.update(ring_cases("g3", G3_WALL, 1.0e-3, 1450.0, "ref1450", 0.7, "refatt07", 2.0))
+# g4, the solid disk (its "wall" is its radius): every effect but a wall's thickness, the
+# speckle inside the disk.
+G4_SOLID = GEOMS["g4"]["r_out"]
+CASES.update({c: p for c, p in ring_cases("g4", G4_SOLID, None, 1500.0, "ref1500", 0.5, "refatt",
+                                          2.5).items() if c != "g4_wall"})
 ALPHA_POWER = 1.0              # y = 1 with alpha_mode = 'no_dispersion' (exactly dB/cm/MHz)
 SPECKLE_SEED, SPECKLE_FRAC, SPECKLE_STD, SPECKLE_CLIP = 21, 0.15, 0.02, 0.04
 
@@ -146,8 +156,11 @@ def build_medium(case):
         info["wall_cells_equiv"] = float(f.sum())
         if p["speckle"]:
             rng = np.random.default_rng(SPECKLE_SEED)
-            fin = ring_fraction(0.0, g["r_out"] - p["wall"], centre=g["centre"])   # lumen fraction
-            cand = (fin >= 1.0) & (f == 0)                          # cells wholly inside the lumen
+            if p["wall"] >= g["r_out"]:                             # a solid disk: inside it
+                cand = f >= 1.0
+            else:
+                fin = ring_fraction(0.0, g["r_out"] - p["wall"], centre=g["centre"])   # lumen fraction
+                cand = (fin >= 1.0) & (f == 0)                      # cells wholly inside the lumen
             u = rng.random((NZ_IN, NX_IN))
             dc = np.clip(rng.normal(0, SPECKLE_STD, (NZ_IN, NX_IN)), -SPECKLE_CLIP, SPECKLE_CLIP)
             drho = np.clip(rng.normal(0, SPECKLE_STD, (NZ_IN, NX_IN)), -SPECKLE_CLIP, SPECKLE_CLIP)
