@@ -119,13 +119,15 @@ CASES = {
     "ref1500":  dict(wall=None, c_w=1500.0, alpha=0.0, speckle=False),
 }
 def ring_cases(g, wall, thick, speed, speed_ref, alpha, alpha_ref, gain_db_cm):
-    """No effect and six effects on ring `g` modelled with a `wall` (m): a `thick` wall, water
-    at `speed` (background run `speed_ref`), attenuation `alpha` (`alpha_ref`), lumen speckle,
-    the long pulse, a depth gain."""
+    """No effect and six effects on ring `g` modelled with a `wall` (m): a `thick` wall (none
+    when `thick` is None), water at `speed` (background run `speed_ref`), attenuation `alpha`
+    (`alpha_ref`), speckle in the lumen (in a solid target, inside it), the long pulse, a
+    depth gain."""
     base = dict(geom=g, wall=wall, c_w=1480.0, alpha=0.0, speckle=False, ref="ref1480")
+    walls = {} if thick is None else {f"{g}_wall": {**base, "wall": thick}}
     return {
         f"{g}_none":    base,
-        f"{g}_wall":    {**base, "wall": thick},
+        **walls,
         f"{g}_speed":   {**base, "c_w": speed, "ref": speed_ref},
         f"{g}_atten":   {**base, "alpha": alpha, "ref": alpha_ref},
         f"{g}_speckle": {**base, "speckle": True},
@@ -137,11 +139,8 @@ for g in ("g1", "g2"):
     CASES.update(ring_cases(g, THIN, 0.9e-3, 1520.0, "ref1520", 0.5, "refatt", 3.0))
 G3_WALL = 0.3e-3               # g3's modelled wall (bench/kwave/g3.toml)
 CASES.update(ring_cases("g3", G3_WALL, 1.0e-3, 1450.0, "ref1450", 0.7, "refatt07", 2.0))
-# g4, the solid disk (its "wall" is its radius): every effect but a wall's thickness, the
-# speckle inside the disk.
-G4_SOLID = GEOMS["g4"]["r_out"]
-CASES.update({c: p for c, p in ring_cases("g4", G4_SOLID, None, 1500.0, "ref1500", 0.5, "refatt",
-                                          2.5).items() if c != "g4_wall"})
+# g4, the solid disk (its "wall" is its radius): every effect but a wall's thickness.
+CASES.update(ring_cases("g4", GEOMS["g4"]["r_out"], None, 1500.0, "ref1500", 0.5, "refatt", 2.5))
 ALPHA_POWER = 1.0              # y = 1 with alpha_mode = 'no_dispersion' (exactly dB/cm/MHz)
 SPECKLE_SEED, SPECKLE_FRAC, SPECKLE_STD, SPECKLE_CLIP = 21, 0.15, 0.02, 0.04
 
