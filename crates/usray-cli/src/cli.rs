@@ -310,14 +310,16 @@ pub enum Command {
         /// gap; where the budget cannot buy that, the diagnosis goes on at the
         /// rays it has and may still name an effect, but ends `inconclusive`
         /// rather than `none`, with the rays and time a decision would need. The
-        /// budget bounds the rays chosen (and whether a further round runs),
-        /// not the run: its time is estimated from the calibration's. Without
-        /// it the rays are as given.
+        /// budget bounds the rays chosen and the compound rounds: a further
+        /// round starts only if the budget left is at least the last round's
+        /// time, and stops after its calibration if its estimated time is
+        /// more than what is left (the report says why). The first round
+        /// always completes. Without it the rays are as given.
         #[arg(long, value_name = "SECONDS")]
         budget: Option<f64>,
         /// Compound gaps: once an effect is named, switch it on at its refitted
         /// value and diagnose again, up to this many rounds in all (a further
-        /// round runs only within the budget).
+        /// round runs only within `--budget`).
         #[arg(long, value_name = "N", default_value_t = 2)]
         rounds: usize,
         /// Smooth both images by a Gaussian of this many wavelengths (standard

@@ -114,4 +114,8 @@ pub enum OptimError {
     /// repairs: the fit's doing, not the scene file's.
     #[error("fit step: {0}")]
     Step(String),
+    /// A compound round ([`diagnose_compound`]) stopped after its calibration:
+    /// the time it would take is more than the budget left.
+    #[error("budget: {0}")]
+    Budget(String),
 }

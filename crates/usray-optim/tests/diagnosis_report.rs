@@ -2,14 +2,17 @@
 //! `usray diagnose` writes, from a Rust caller, on a tiny scene.
 
 use std::path::Path;
-use usray_optim::{diagnose_compound, grid_shape, DiagnoseOptions, Diagnosis, Report};
+use usray_optim::{
+    diagnose, diagnose_compound, grid_shape, DiagnoseOptions, Diagnosis, FirstRound, OptimError,
+    Report,
+};
 mod common;
 use common::tiny_scene;
 use usray_transport::{RenderOptions, Scene};
 
 /// Data from the same scene with a longer pulse (5 cycles for the model's 3),
-/// and the two rounds of its quick diagnosis.
-fn diagnosed() -> (Scene, Vec<f64>, Vec<Diagnosis>) {
+/// and the options of a quick diagnosis.
+fn tiny_case() -> (Scene, Vec<f64>, DiagnoseOptions) {
     let scene = tiny_scene();
     let mut truth = scene.clone();
     truth.set(&"probe.cycles".parse().unwrap(), 5.0).unwrap();
@@ -37,8 +40,64 @@ fn diagnosed() -> (Scene, Vec<f64>, Vec<Diagnosis>) {
         },
         ..Default::default()
     };
+    (scene, measured, opts)
+}
+
+/// [`tiny_case`] and the two rounds of its quick diagnosis.
+fn diagnosed() -> (Scene, Vec<f64>, Vec<Diagnosis>) {
+    let (scene, measured, opts) = tiny_case();
     let rounds = diagnose_compound(&scene, &measured, &opts, 2, |_| {}).unwrap();
     (scene, measured, rounds)
+}
+
+/// A later round stops after its calibration when its time, estimated from
+/// that calibration as many times over as the first round's whole time was
+/// over its own, is more than the budget it was given; within it, it runs.
+#[test]
+fn a_later_round_stops_after_its_calibration_when_it_would_overrun_its_budget() {
+    let (scene, measured, opts) = tiny_case();
+    let later = |seconds_over_calibration| DiagnoseOptions {
+        first_round: Some(FirstRound {
+            scores: Default::default(),
+            loss_held_out: 1.0,
+            seconds_over_calibration,
+        }),
+        budget_s: Some(600.0),
+        ..opts.clone()
+    };
+    match diagnose(&scene, &measured, &later(1e12), |_| {}) {
+        Err(OptimError::Budget(why)) => {
+            assert!(why.contains("more than the 600 s left"), "{why}");
+        }
+        other => panic!("a round estimated at 1e12 times its calibration ran: {other:?}"),
+    }
+    let within = diagnose(&scene, &measured, &later(1.0), |_| {}).unwrap();
+    assert!(within.next_round_stopped.is_none());
+}
+
+/// A compound round starts only where the budget left pays for a round as
+/// long as the last; the report says why it did not run.
+#[test]
+fn no_compound_round_starts_without_the_budget_for_it() {
+    let (scene, measured, opts) = tiny_case();
+    let (_, _, unbounded) = diagnosed();
+    assert_eq!(unbounded.len(), 2, "the quick diagnosis names an effect");
+    assert!(unbounded[1].next_round_stopped.is_none());
+    // A budget shorter than any round: the first runs (it always does, at the
+    // rays given), the second does not start.
+    let opts = DiagnoseOptions {
+        budget_s: Some(1e-3),
+        ..opts
+    };
+    let rounds = diagnose_compound(&scene, &measured, &opts, 2, |_| {}).unwrap();
+    assert_eq!(rounds.len(), 1);
+    let why = rounds[0].next_round_stopped.as_deref().unwrap();
+    assert!(
+        why.starts_with("round 2 stopped: the budget left, 0 s, is less than the last round took"),
+        "{why}"
+    );
+    let md = markdown_of(&scene, &measured, &rounds);
+    assert!(md.contains("Round 2 stopped: the budget left"), "{md}");
 }
 
 /// The Markdown report of `rounds` of `tiny.toml` against `measured.npy`.

@@ -159,7 +159,11 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
             format!(", then {}", named[1..].join(", then "))
         } else {
             String::new()
-        },
+        } + &rounds
+            .last()
+            .and_then(|r| r.next_round_stopped.as_ref())
+            .map(|why| format!(" ({why})"))
+            .unwrap_or_default(),
         100.0 * d.noise_check.share,
         d.noise_check.rays,
         wall,

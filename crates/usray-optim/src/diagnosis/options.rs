@@ -16,6 +16,12 @@ pub struct FirstRound {
     pub scores: BTreeMap<String, f64>,
     /// The first round's calibrated held-out loss.
     pub loss_held_out: f64,
+    /// The first round's whole time over its calibration stage's (step 1 with
+    /// its held-out evaluation), both on the wall clock: a later round, whose
+    /// scene may render far slower, estimates its own time as this many times
+    /// its calibration stage, and stops there when that is more than its
+    /// budget ([`DiagnoseOptions::budget_s`]).
+    pub seconds_over_calibration: f64,
 }
 
 /// Settings of a diagnosis.
@@ -68,9 +74,12 @@ pub struct DiagnoseOptions {
     /// simulation's noise is at most [`DiagnoseOptions::noise_share`] of the
     /// calibrated gap; where the budget cannot buy that, the diagnosis goes on
     /// at the rays it has and cannot say `"none"` ([`super::unnamed_verdict`]).
-    /// The budget bounds the rays chosen; the diagnosis's time is estimated
-    /// from its calibration's (a whole diagnosis takes about six times its
-    /// calibration stage), not enforced.
+    /// The budget bounds the rays chosen (a whole diagnosis's time estimated
+    /// as about six times its calibration stage's) and the compound rounds
+    /// ([`super::diagnose_compound`]): a later round starts only where the
+    /// budget left pays for a round as long as the last, and stops after its
+    /// calibration where its own estimate is more than what is left. Within
+    /// a round the steps after the calibration are not cut short.
     /// `None` (the default): the rays as given, and the same check reported.
     pub budget_s: Option<f64>,
     /// Largest share of the calibrated held-out loss the simulation's noise may

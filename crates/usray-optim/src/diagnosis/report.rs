@@ -107,6 +107,7 @@ impl Report<'_> {
                         "noise_check": r.noise_check,
                         "loss_held_out": r.calibrated.loss_held_out,
                         "seconds": r.timings.total_s,
+                        "next_round_stopped": r.next_round_stopped,
                         "effects": r.effects,
                     })
                 })
@@ -459,6 +460,11 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 100.0 * round.noise_check.share,
                 round.noise_check.rays,
             )?;
+        }
+        if let Some(why) = rounds.last().and_then(|l| l.next_round_stopped.as_ref()) {
+            // `why` opens with "round N stopped": a sentence of its own here.
+            let (first, rest) = why.split_at(1);
+            writeln!(r, "\n{}{rest}. The budget (`--budget`) bounds every round: a larger one lets the rounds go on.", first.to_uppercase())?;
         }
         for (i, round) in rounds.iter().enumerate().skip(1) {
             for e in &round.effects {

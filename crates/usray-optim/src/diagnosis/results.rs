@@ -2,6 +2,7 @@
 //! refit, the null refit, the verdict, the noise check and where the time went
 //! (serialised as `diagnosis.json`, CONTRACT §5).
 
+use super::calibration::DIAGNOSIS_OVER_CALIBRATION;
 use super::noise_budget::NoiseCheck;
 use super::residual::{RegionShare, ResidualReport};
 use super::verdict::{Verdict, VerdictRule};
@@ -355,6 +356,27 @@ pub struct Timings {
     pub total_s: f64,
 }
 
+impl Timings {
+    /// Step 1 with its held-out evaluation: the calibration stage whose time a
+    /// later round's estimate scales ([`super::FirstRound::seconds_over_calibration`]).
+    pub fn calibration_stage_s(&self) -> f64 {
+        self.calibration_s + self.held_out_s
+    }
+
+    /// The whole diagnosis's time over its calibration stage's
+    /// ([`Timings::calibration_stage_s`]); six, the budget's usual estimate,
+    /// where the stage took no measurable time (a run resumed from its
+    /// checkpoint).
+    pub fn over_calibration(&self) -> f64 {
+        let ratio = self.total_s / self.calibration_stage_s();
+        if ratio.is_finite() && ratio >= 1.0 {
+            ratio
+        } else {
+            DIAGNOSIS_OVER_CALIBRATION
+        }
+    }
+}
+
 /// Everything a diagnosis found (serialised as `diagnosis.json`, CONTRACT §5).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Diagnosis {
@@ -397,6 +419,11 @@ pub struct Diagnosis {
     pub max_bounces: u32,
     /// Where each step's time went.
     pub timings: Timings,
+    /// Why no further compound round followed this one where one was asked
+    /// ([`super::diagnose_compound`]): the budget left could not pay for it,
+    /// or it failed. Absent when the rounds ran out or nothing was named.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub next_round_stopped: Option<String>,
     /// The full residual analysis of the calibrated model (kinds of residual).
     #[serde(skip)]
     pub residual: ResidualReport,

@@ -69,6 +69,23 @@ pub fn diagnose(
         &mut timings,
         &mut progress,
     )?;
+    // A later round stops here when its time, estimated from its calibration
+    // stage as the first round's whole time was from its own, is more than the
+    // budget it was given: its scene (the named effect switched on) may render
+    // far slower than the first round's. Decided on the wall clock, so kept
+    // for a resumed run.
+    if let (Some(first), Some(budget)) = (&opts.first_round, opts.budget_s) {
+        let stage_s = timings.calibration_stage_s();
+        let estimate_s = opts.journal.remember("round seconds estimated", || {
+            Ok(stage_s * first.seconds_over_calibration)
+        })?;
+        if estimate_s > budget {
+            return Err(OptimError::Budget(format!(
+                "its calibration took {stage_s:.0} s, so the round would take about {estimate_s:.0} s ({:.1} times its calibration, as the first round took), more than the {budget:.0} s left",
+                first.seconds_over_calibration
+            )));
+        }
+    }
     let t = Instant::now();
     let cal_std = parameter_spread(
         &stage.objective,
@@ -206,6 +223,7 @@ pub fn diagnose(
         held_out_frames: opts.held_out_measured.is_some(),
         max_bounces,
         timings,
+        next_round_stopped: None,
         residual,
         calibrated_image: stage.eval.image.data,
         after_image,
@@ -245,8 +263,14 @@ fn additivity(
 /// it adds to the first round's ([`EffectResult::additivity`],
 /// [`super::VerdictRule::min_additivity`]). Returns every round's diagnosis, in
 /// order: the ranked list of effects, each with its shrink. With
-/// [`DiagnoseOptions::budget_s`], a further round runs only within what is left
-/// of the budget, and receives that remainder as its own.
+/// [`DiagnoseOptions::budget_s`], a further round starts only where what is
+/// left of the budget is at least the last round's time, receives that
+/// remainder as its own, and stops after its calibration where its time,
+/// estimated from that calibration as many times over as the first round's
+/// whole time was over its own ([`FirstRound::seconds_over_calibration`]), is
+/// more than the remainder: a round whose scene renders slower (a named wall
+/// switched on) is caught there. Why no further round ran is kept in the last
+/// round's [`Diagnosis::next_round_stopped`].
 ///
 /// # Errors
 /// As [`diagnose`], for the first round; a later round's error ends the list
@@ -301,20 +325,29 @@ pub fn diagnose_compound(
         }
         let elapsed = started.elapsed().as_secs_f64();
         // Whether to go on and the budget left, decided on the wall clock and so
-        // kept for a resumed run.
+        // kept for a resumed run: a round starts only if the budget left pays
+        // for one as long as the last.
         let round_no = out.len() + 1;
-        let (go_on, budget_s): (bool, Option<f64>) =
+        let budget_s: Result<Option<f64>, String> =
             opts.journal
-                .remember(&format!("round {round_no} budget"), || {
+                .remember(&format!("round {round_no} budget left"), || {
                     Ok(match opts.budget_s {
-                        Some(b) if b - elapsed <= 0.5 * elapsed / out.len() as f64 => (false, None),
-                        Some(b) => (true, Some(b - elapsed)),
-                        None => (true, None),
+                        Some(b) if b - elapsed < last.timings.total_s => Err(format!(
+                            "the budget left, {:.0} s, is less than the last round took ({:.0} s)",
+                            (b - elapsed).max(0.0),
+                            last.timings.total_s
+                        )),
+                        Some(b) => Ok(Some(b - elapsed)),
+                        None => Ok(None),
                     })
                 })?;
-        if !go_on {
-            break;
-        }
+        let budget_s = match budget_s {
+            Ok(b) => b,
+            Err(why) => {
+                stop(&mut out, round_no, why, &mut progress);
+                break;
+            }
+        };
         let first = &out[0];
         let round = DiagnoseOptions {
             first_round: Some(FirstRound {
@@ -324,6 +357,7 @@ pub fn diagnose_compound(
                     .map(|e| (e.path.clone(), e.score))
                     .collect(),
                 loss_held_out: first.calibrated.loss_held_out,
+                seconds_over_calibration: first.timings.over_calibration(),
             }),
             free_params: free,
             fit,
@@ -342,13 +376,26 @@ pub fn diagnose_compound(
         ));
         match diagnose(next_scene, measured, &round, &mut progress) {
             Ok(d) => out.push(d),
+            Err(OptimError::Budget(why)) => {
+                stop(&mut out, round_no, why, &mut progress);
+                break;
+            }
             Err(e) => {
-                progress(&format!("round {} failed: {e}", out.len() + 1));
+                stop(&mut out, round_no, format!("it failed: {e}"), &mut progress);
                 break;
             }
         }
     }
     Ok(out)
+}
+
+/// Records on the last of `rounds` why round `round_no` did not run or finish.
+fn stop(rounds: &mut [Diagnosis], round_no: usize, why: String, progress: &mut dyn FnMut(&str)) {
+    let why = format!("round {round_no} stopped: {why}");
+    progress(&why);
+    if let Some(last) = rounds.last_mut() {
+        last.next_round_stopped = Some(why);
+    }
 }
 
 #[cfg(test)]
@@ -387,6 +434,7 @@ mod tests {
         let first = FirstRound {
             scores: BTreeMap::from([("a".to_string(), 0.2), ("b".to_string(), 0.002)]),
             loss_held_out: 1.0,
+            seconds_over_calibration: 6.0,
         };
         let a = additivity("a", Some(0.25), &first, 0.8).unwrap();
         assert!((a - 1.0).abs() < 1e-12, "{a}");
