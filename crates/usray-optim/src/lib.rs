@@ -116,6 +116,11 @@ pub enum OptimError {
     Step(String),
     /// A compound round ([`diagnose_compound`]) stopped after its calibration:
     /// the time it would take is more than the budget left.
-    #[error("budget: {0}")]
-    Budget(String),
+    #[error("budget: {message}")]
+    Budget {
+        /// What the round's calibration took and what the round would take.
+        message: String,
+        /// The round's whole time, estimated, seconds.
+        estimate_s: f64,
+    },
 }

@@ -66,8 +66,12 @@ fn a_later_round_stops_after_its_calibration_when_it_would_overrun_its_budget() 
         ..opts.clone()
     };
     match diagnose(&scene, &measured, &later(1e12), |_| {}) {
-        Err(OptimError::Budget(why)) => {
-            assert!(why.contains("more than the 600 s left"), "{why}");
+        Err(OptimError::Budget {
+            message,
+            estimate_s,
+        }) => {
+            assert!(message.contains("more than the 600 s left"), "{message}");
+            assert!(estimate_s > 600.0, "{estimate_s}");
         }
         other => panic!("a round estimated at 1e12 times its calibration ran: {other:?}"),
     }
@@ -96,6 +100,19 @@ fn no_compound_round_starts_without_the_budget_for_it() {
         why.starts_with("round 2 stopped: the budget left, 0 s, is less than the last round took"),
         "{why}"
     );
+    // The advice: a budget, in tens of seconds, of at least twice the first
+    // round's time (the time already spent and as much again).
+    let advised: f64 = why
+        .split("`--budget ")
+        .nth(1)
+        .and_then(|t| t.split('`').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no budget advised: {why}"));
+    assert!(
+        advised % 10.0 == 0.0 && advised >= 2.0 * rounds[0].timings.total_s,
+        "{why}"
+    );
+    assert!(why.ends_with("would let it start"), "{why}");
     let md = markdown_of(&scene, &measured, &rounds);
     assert!(md.contains("Round 2 stopped: the budget left"), "{md}");
 }

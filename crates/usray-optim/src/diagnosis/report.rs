@@ -464,7 +464,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         if let Some(why) = rounds.last().and_then(|l| l.next_round_stopped.as_ref()) {
             // `why` opens with "round N stopped": a sentence of its own here.
             let (first, rest) = why.split_at(1);
-            writeln!(r, "\n{}{rest}. The budget (`--budget`) bounds every round: a larger one lets the rounds go on.", first.to_uppercase())?;
+            writeln!(r, "\n{}{rest}.", first.to_uppercase())?;
         }
         for (i, round) in rounds.iter().enumerate().skip(1) {
             for e in &round.effects {

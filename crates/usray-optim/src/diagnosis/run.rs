@@ -80,10 +80,13 @@ pub fn diagnose(
             Ok(stage_s * first.seconds_over_calibration)
         })?;
         if estimate_s > budget {
-            return Err(OptimError::Budget(format!(
-                "its calibration took {stage_s:.0} s, so the round would take about {estimate_s:.0} s ({:.1} times its calibration, as the first round took), more than the {budget:.0} s left",
-                first.seconds_over_calibration
-            )));
+            return Err(OptimError::Budget {
+                message: format!(
+                    "its calibration took {stage_s:.0} s, so the round would take about {estimate_s:.0} s ({:.1} times its calibration, as the first round took), more than the {budget:.0} s left",
+                    first.seconds_over_calibration
+                ),
+                estimate_s,
+            });
         }
     }
     let t = Instant::now();
@@ -333,10 +336,11 @@ pub fn diagnose_compound(
                 .remember(&format!("round {round_no} budget left"), || {
                     Ok(match opts.budget_s {
                         Some(b) if b - elapsed < last.timings.total_s => Err(format!(
-                            "the budget left, {:.0} s, is less than the last round took ({:.0} s)",
-                            (b - elapsed).max(0.0),
-                            last.timings.total_s
-                        )),
+                        "the budget left, {:.0} s, is less than the last round took ({:.0} s); {}",
+                        (b - elapsed).max(0.0),
+                        last.timings.total_s,
+                        budget_that_would_do(elapsed + last.timings.total_s, "start")
+                    )),
                         Some(b) => Ok(Some(b - elapsed)),
                         None => Ok(None),
                     })
@@ -376,8 +380,17 @@ pub fn diagnose_compound(
         ));
         match diagnose(next_scene, measured, &round, &mut progress) {
             Ok(d) => out.push(d),
-            Err(OptimError::Budget(why)) => {
-                stop(&mut out, round_no, why, &mut progress);
+            Err(OptimError::Budget {
+                message,
+                estimate_s,
+            }) => {
+                let needed = budget_that_would_do(elapsed + estimate_s, "run");
+                stop(
+                    &mut out,
+                    round_no,
+                    format!("{message}; {needed}"),
+                    &mut progress,
+                );
                 break;
             }
             Err(e) => {
@@ -387,6 +400,13 @@ pub fn diagnose_compound(
         }
     }
     Ok(out)
+}
+
+/// The advice on a round the budget stopped: a budget of `needed_s` seconds,
+/// rounded up to ten, would let it `what` ("start" or "run").
+fn budget_that_would_do(needed_s: f64, what: &str) -> String {
+    let budget = (needed_s / 10.0).ceil() * 10.0;
+    format!("`--budget {budget:.0}` would let it {what}")
 }
 
 /// Records on the last of `rounds` why round `round_no` did not run or finish.
