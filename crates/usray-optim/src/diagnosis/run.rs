@@ -331,20 +331,22 @@ pub fn diagnose_compound(
         // kept for a resumed run: a round starts only if the budget left pays
         // for one as long as the last.
         let round_no = out.len() + 1;
-        let budget_s: Result<Option<f64>, String> =
-            opts.journal
-                .remember(&format!("round {round_no} budget left"), || {
-                    Ok(match opts.budget_s {
-                        Some(b) if b - elapsed < last.timings.total_s => Err(format!(
-                        "the budget left, {:.0} s, is less than the last round took ({:.0} s); {}",
-                        (b - elapsed).max(0.0),
-                        last.timings.total_s,
-                        budget_that_would_do(elapsed + last.timings.total_s, "start")
-                    )),
-                        Some(b) => Ok(Some(b - elapsed)),
-                        None => Ok(None),
-                    })
-                })?;
+        let budget_s: Result<Option<f64>, String> = opts
+            .journal
+            .remember(&format!("round {round_no} budget left"), || {
+                Ok(match opts.budget_s {
+                    Some(b) if b - elapsed < last.timings.total_s => {
+                        let advice = budget_that_would_do(elapsed + last.timings.total_s, "start");
+                        Err(format!(
+                            "the budget left, {:.0} s, is less than the last round took ({:.0} s); {advice}",
+                            (b - elapsed).max(0.0),
+                            last.timings.total_s,
+                        ))
+                    }
+                    Some(b) => Ok(Some(b - elapsed)),
+                    None => Ok(None),
+                })
+            })?;
         let budget_s = match budget_s {
             Ok(b) => b,
             Err(why) => {
