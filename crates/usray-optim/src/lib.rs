@@ -57,8 +57,8 @@ pub use diagnosis::{
     diagnosis_bounces, diagnosis_smoothing, held_out_seed, mean_and_se, name_effect,
     names_an_effect, noise_exponent, parameter_candidates, rays_needed, score_candidate,
     simulation_noise_share, sound_speed_tolerance, unnamed_verdict, wall_thickness_tolerance,
-    Calibrated, Candidate, DiagnoseOptions, Diagnosis, EffectResult, FirstRound, FreeParam,
-    LossSetup, NoiseCheck, NullRefit, Report, Score, Timings, Verdict, VerdictRule,
+    Calibrated, Candidate, Confirmation, DiagnoseOptions, Diagnosis, EffectResult, FirstRound,
+    FreeParam, LossSetup, NoiseCheck, NullRefit, Report, Score, Timings, Verdict, VerdictRule,
 };
 pub use fd::{best_fd, fd_sweep, fd_sweeps, log_steps, sweep_steps, FdPoint};
 pub use fit::{fit, fit_journaled, FitOptions, FitResult, FitStep};

@@ -3,8 +3,8 @@
 
 use std::path::Path;
 use usray_optim::{
-    diagnose, diagnose_compound, grid_shape, DiagnoseOptions, Diagnosis, FirstRound, OptimError,
-    Report,
+    diagnose, diagnose_compound, grid_shape, Confirmation, DiagnoseOptions, Diagnosis, FirstRound,
+    OptimError, Report, VerdictRule,
 };
 mod common;
 use common::tiny_scene;
@@ -77,6 +77,88 @@ fn a_later_round_stops_after_its_calibration_when_it_would_overrun_its_budget() 
     }
     // Estimated at its calibration's own time, well within 600 s: it completes.
     diagnose(&scene, &measured, &later(1.0), |_| {}).unwrap();
+}
+
+/// A refit that would be named but for its first look's standard error over
+/// the seeds is rendered again with the control on fresh seeds, and the
+/// seeds' test decided there; where the budget left cannot pay for that, the
+/// verdict cannot be `none`.
+#[test]
+fn a_borderline_refit_is_measured_again_on_fresh_seeds() {
+    let (scene, measured, opts) = tiny_case();
+    let opts = DiagnoseOptions {
+        confirmation_seeds: 4,
+        ..opts
+    };
+    let first = diagnose(&scene, &measured, &opts, |_| {}).unwrap();
+    let refitted = |d: &Diagnosis| {
+        d.effects
+            .iter()
+            .find(|e| e.excess.is_some())
+            .cloned()
+            .expect("the quick diagnosis refits one candidate")
+    };
+    let e1 = refitted(&first);
+    let (x1, se1) = (e1.excess.unwrap(), e1.excess_std.unwrap());
+    let z1 = x1 / se1;
+    assert!(
+        z1 > 0.0 && !e1.at_range_bound() && !e1.within_tolerance() && !e1.indistinct_from_null(),
+        "premise: a refit that gains and passes the tests other than significance: {e1:?}"
+    );
+    // A rule that puts this first look in the borderline band (and passes
+    // the blocks' test, which is not what is tested here).
+    let rule = VerdictRule {
+        borderline_z: 0.5 * z1,
+        min_excess_z: 2.0 * z1,
+        min_spatial_z: 0.0,
+        ..opts.rule
+    };
+    let forced = DiagnoseOptions { rule, ..opts };
+    let second = diagnose(&scene, &measured, &forced, |_| {}).unwrap();
+    let e2 = refitted(&second);
+    // The first look is untouched by the second: same seeds, same bits.
+    assert_eq!((e2.excess, e2.excess_std), (e1.excess, e1.excess_std));
+    let Some(Confirmation::Measured {
+        seeds,
+        excess,
+        excess_std: Some(se2),
+        ..
+    }) = e2.confirmation
+    else {
+        panic!("no second look measured: {:?}", e2.confirmation);
+    };
+    assert_eq!(seeds, 4);
+    // Both looks estimate the same excess on independent seeds.
+    assert!(
+        (excess - x1).abs() <= 4.0 * (se1 * se1 + se2 * se2).sqrt(),
+        "first look {x1:+.4} ± {se1:.4}, second {excess:+.4} ± {se2:.4}"
+    );
+    // Named only if the fresh seeds alone pass the seeds' test.
+    assert_eq!(
+        second.verdict.effect == e2.effect,
+        excess >= rule.min_excess_z * se2,
+        "{:?}",
+        second.verdict
+    );
+    // Without the budget for the second look: recorded, and `inconclusive`
+    // (the first look alone is below the bar, so nothing is named).
+    let short = DiagnoseOptions {
+        budget_s: Some(1e-3),
+        ..forced
+    };
+    let third = diagnose(&scene, &measured, &short, |_| {}).unwrap();
+    let e3 = refitted(&third);
+    match e3.confirmation {
+        Some(Confirmation::OverBudget {
+            seeds: 4,
+            estimate_s,
+            left_s,
+        }) => assert!(estimate_s > left_s, "{estimate_s} within {left_s}"),
+        other => panic!("a second look without the budget for it: {other:?}"),
+    }
+    assert_eq!(third.verdict.effect, "inconclusive");
+    let md = markdown_of(&scene, &measured, std::slice::from_ref(&third));
+    assert!(md.contains("Rerun with a budget about"), "{md}");
 }
 
 /// A compound round starts only where the budget left pays for a round as

@@ -168,6 +168,10 @@ pub(crate) struct Stage {
     pub render_s: RenderOptions,
     /// Render options of each held-out seed at this stage's rays.
     pub renders_held: Vec<RenderOptions>,
+    /// Wall time of one model's held-out evaluation on one seed at this
+    /// stage's rays, seconds: what a second look's renders cost
+    /// ([`super::Confirmation`]).
+    pub held_eval_s: f64,
 }
 
 /// How every loss of a diagnosis is taken: paired or not
@@ -274,6 +278,7 @@ pub(crate) fn calibrate(
     timings.calibration_s += t.elapsed().as_secs_f64();
     let t = Instant::now();
     let held = held_out(&cal_scene, held_data, &renders_held, &setup)?;
+    let held_eval_s = t.elapsed().as_secs_f64() / renders_held.len().max(1) as f64;
     let held_losses: Vec<f64> = held.iter().map(|e| e.loss).collect();
     let held_loss = mean(&held_losses);
     // The noise level: the same loss with the calibrated model's own image (seed
@@ -302,6 +307,7 @@ pub(crate) fn calibrate(
         noise_loss,
         render_s,
         renders_held,
+        held_eval_s,
     })
 }
 

@@ -58,6 +58,12 @@
 //!    every refit restarts Adam's moments and may).
 //!    Every fitted parameter of the calibration and of each refit carries its
 //!    Monte Carlo spread ([`crate::parameter_spread`]).
+//!    **A second look** ([`Confirmation`]): a refit that would be named but
+//!    for its excess's standard error over the seeds, at between
+//!    [`VerdictRule::borderline_z`] and [`VerdictRule::min_excess_z`] of it,
+//!    is rendered with the control again on
+//!    [`DiagnoseOptions::confirmation_seeds`] fresh seeds, within the budget,
+//!    and the seeds' test is decided on those alone.
 //! 5. **Verdict** ([`name_effect`], [`unnamed_verdict`]): a refitted effect
 //!    qualifies when its excess over the null refit is at least
 //!    [`VerdictRule::min_excess_z`] of its standard errors over the held-out
@@ -113,6 +119,7 @@
 //! | `refits` | step 4: the null refit and the leading candidates' refits |
 //! | `held_out` | step 4's statistics: held-out seeds, losses, means and standard errors |
 //! | `spatial` | step 4's spatial standard error of an excess (blocks of the image) |
+//! | `confirmation` | step 4's second look at a borderline refit on fresh seeds ([`Confirmation`]) |
 //! | `noise_budget` | the simulation's noise against the gap ([`NoiseCheck`]) |
 //! | `verdict` | step 5 ([`name_effect`], [`unnamed_verdict`], [`VerdictRule`]) |
 //! | `results` | what a diagnosis found ([`Diagnosis`]) |
@@ -121,6 +128,7 @@
 
 mod calibration;
 mod catalogue;
+mod confirmation;
 mod held_out;
 mod noise_budget;
 mod options;
@@ -146,7 +154,7 @@ pub use noise_budget::{noise_exponent, rays_needed, simulation_noise_share, Nois
 pub use options::{DiagnoseOptions, FirstRound};
 pub use parameter_candidates::parameter_candidates;
 pub use report::Report;
-pub use results::{Calibrated, Diagnosis, EffectResult, NullRefit, Timings};
+pub use results::{Calibrated, Confirmation, Diagnosis, EffectResult, NullRefit, Timings};
 pub use run::{diagnose, diagnose_compound};
 pub use screening::{score_candidate, Score};
 pub use verdict::{name_effect, names_an_effect, unnamed_verdict, Verdict, VerdictRule};

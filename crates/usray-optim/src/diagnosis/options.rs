@@ -48,6 +48,12 @@ pub struct DiagnoseOptions {
     /// averaged ([`super::held_out_seed`]; default 6, at least 1; the standard errors
     /// of the shrinks and excesses come from the spread over these seeds).
     pub held_out_seeds: usize,
+    /// Fresh seeds on which a borderline refit and the control are rendered
+    /// again ([`super::Confirmation`], [`super::VerdictRule::borderline`];
+    /// default 24, four times [`DiagnoseOptions::held_out_seeds`]: an excess
+    /// at two standard errors over six seeds, if real, stands at about four
+    /// over 24; 0 takes no second look).
+    pub confirmation_seeds: usize,
     /// Use the paired loss ([`crate::Objective::pair_seeds`]) everywhere: the
     /// calibration, scoring, refits and held-out losses render twice with
     /// independent seeds (the loss's ℓ2 term is then unbiased in the
@@ -121,6 +127,7 @@ impl Default for DiagnoseOptions {
             rule: VerdictRule::default(),
             spread_pairs: 4,
             held_out_seeds: 6,
+            confirmation_seeds: 24,
             paired: false,
             held_out_measured: None,
             fit: FitOptions::default(),

@@ -186,6 +186,9 @@ pub(crate) struct Control {
     /// the null refit ended worse (every refit restarts Adam's moments and
     /// may).
     pub baseline: HeldOutLosses,
+    /// The scene of that baseline, for a second look on fresh seeds
+    /// ([`super::Confirmation`]).
+    pub baseline_scene: Scene,
 }
 
 /// The control: the base parameters alone, refitted from the calibrated point
@@ -217,22 +220,18 @@ pub(crate) fn null_refit(
     )?;
     // Its best point, as every candidate's refit (`refit_candidate`).
     let null_best = null_fit.best().0.to_vec();
-    let null_after = held_out(
-        &null_obj.scene_at(&null_best)?,
-        held_data,
-        &stage.renders_held,
-        &stage.setup,
-    )?;
+    let null_scene = null_obj.scene_at(&null_best)?;
+    let null_after = held_out(&null_scene, held_data, &stage.renders_held, &stage.setup)?;
     let null_losses: Vec<f64> = null_after.iter().map(|e| e.loss).collect();
     let (shrink, shrink_std) = mean_and_se(&relative_differences(
         &stage.held_losses,
         &null_losses,
         stage.held_loss,
     ));
-    let baseline_evals = if shrink > 0.0 {
-        &null_after
+    let (baseline_evals, baseline_scene) = if shrink > 0.0 {
+        (&null_after, null_scene)
     } else {
-        &stage.held
+        (&stage.held, stage.scene.clone())
     };
     let baseline = held_out_losses(
         &stage.setup,
@@ -253,6 +252,7 @@ pub(crate) fn null_refit(
                 .collect(),
         },
         baseline,
+        baseline_scene,
     })
 }
 

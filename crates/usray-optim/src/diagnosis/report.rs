@@ -9,7 +9,7 @@
 
 use super::refits::DETECTION_LIMIT_SPREADS;
 use super::residual::{residual_scale, GreyStats, ResidualReport};
-use super::results::{Diagnosis, EffectResult};
+use super::results::{Confirmation, Diagnosis, EffectResult};
 use super::verdict::{names_an_effect, TIE_MARGIN};
 use crate::mirror::impedance_mirror;
 use crate::objective::grid_shape;
@@ -103,6 +103,7 @@ impl Report<'_> {
                         "excess": named.and_then(|e| e.excess),
                         "excess_std": named.and_then(|e| e.excess_std),
                         "excess_spatial_std": named.and_then(|e| e.excess_spatial_std),
+                        "confirmation": named.and_then(|e| e.confirmation.clone()),
                         "found": named.and_then(|e| e.params.get(&e.path)),
                         "noise_check": r.noise_check,
                         "loss_held_out": r.calibrated.loss_held_out,
@@ -192,10 +193,17 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         "none" => writeln!(r, "No candidate effect shrinks the held-out loss significantly more than refitting the base parameters alone does (by {:.0} standard errors over the held-out seeds and {:.0} over the image's blocks), and the simulation's Monte Carlo noise was small enough to see one: {:.0}% of the calibrated gap at {} rays (at most {:.0}%). The limits of detection below say how weak an effect could still go unseen.\n", d.rule.min_excess_z, d.rule.min_spatial_z, 100.0 * nc.share, nc.rays, 100.0 * nc.target)?,
         "unexplained" => writeln!(r, "A gap remains (held-out loss {:.4e} against a Monte Carlo noise level of {:.4e}, both averaged over {} seeds) that a candidate shrinks by at least {:.0}% of the loss more than refitting the base parameters alone, but not across the image: its gain lies in a few places and is paid for in others. Something the catalogue does not hold is there; see where the residual lies (section 2).\n", d.calibrated.loss_held_out, d.noise_loss, d.held_out_seeds, 100.0 * d.rule.large_excess)?,
         "inconclusive" => {
-            writeln!(r, "The simulation's own Monte Carlo noise is {:.0}% of the calibrated gap at {} rays per element (a decision needs at most {:.0}%), so a candidate could win or lose by fitting noise, and no effect was found that clears it.", 100.0 * nc.share, nc.rays, 100.0 * nc.target)?;
-            match (nc.rays_needed, nc.seconds_needed) {
-                (Some(rays), Some(s)) => writeln!(r, "A decision needs about **{rays} rays**, about {s:.0} s for the whole diagnosis on this machine: rerun with `--budget {:.0}` (or `--rays {rays}`).\n", s.ceil())?,
-                _ => writeln!(r, "The calibrated model's held-out loss is no larger than its own noise: no gap is visible at this noise level, and how many rays would show one cannot be told from it. Rerun with several times the rays.\n")?,
+            if !nc.passed {
+                writeln!(r, "The simulation's own Monte Carlo noise is {:.0}% of the calibrated gap at {} rays per element (a decision needs at most {:.0}%), so a candidate could win or lose by fitting noise, and no effect was found that clears it.", 100.0 * nc.share, nc.rays, 100.0 * nc.target)?;
+                match (nc.rays_needed, nc.seconds_needed) {
+                    (Some(rays), Some(s)) => writeln!(r, "A decision needs about **{rays} rays**, about {s:.0} s for the whole diagnosis on this machine: rerun with `--budget {:.0}` (or `--rays {rays}`).\n", s.ceil())?,
+                    _ => writeln!(r, "The calibrated model's held-out loss is no larger than its own noise: no gap is visible at this noise level, and how many rays would show one cannot be told from it. Rerun with several times the rays.\n")?,
+                }
+            }
+            for e in &d.effects {
+                if let Some(Confirmation::OverBudget { seeds, estimate_s, left_s }) = e.confirmation {
+                    writeln!(r, "`{}` (`{}`) passes every test but one: its gain over the null refit, {}, is {} standard errors over the {} held-out seeds, more than {:.0} but fewer than {:.0}. Such a borderline gain is measured again on {seeds} fresh seeds before it is named or ruled out, which would take about {estimate_s:.0} s, and {:.0} s of the budget was left. Rerun with a budget about {:.0} s larger.\n", e.effect, e.path, excess_text(e), first_look_z(e), e.held_out_losses.len(), d.rule.borderline_z, d.rule.min_excess_z, left_s.max(0.0), (10.0 * ((estimate_s - left_s) / 10.0).ceil()).max(10.0))?;
+                }
             }
         }
         e => {
@@ -248,6 +256,25 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             .collect();
         if !small.is_empty() {
             writeln!(r, "**Significant, but too small to matter:** {}. A departure within its tolerance leaves the image as it was or changes only what a base parameter changes too (the rule is under “Candidate effects”), so its gain is the base model being adjusted through this parameter, not this effect.\n", small.join("; "))?;
+        }
+    }
+    for e in &d.effects {
+        if let Some(Confirmation::Measured {
+            seeds,
+            excess,
+            excess_std,
+            ..
+        }) = e.confirmation
+        {
+            let z = excess_std.map_or(String::new(), |se| {
+                format!(", {:.1} standard errors", excess / se)
+            });
+            let outcome = if d.rule.significant(e) {
+                "significant there"
+            } else {
+                "not significant there"
+            };
+            writeln!(r, "**Measured again on fresh seeds:** `{}`'s gain over the null refit, {} ({} standard errors over the {} held-out seeds, between {:.0} and {:.0}: borderline), was rendered again with the control on {seeds} seeds none of the above used: {excess:+.3}{}{z}, {outcome}. The seeds' test is decided on those alone, so the second look does not raise the chance of naming an effect by chance.\n", e.effect, excess_text(e), first_look_z(e), e.held_out_losses.len(), d.rule.borderline_z, d.rule.min_excess_z, excess_std.map_or(String::new(), |se| format!(" ± {se:.3}")))?;
         }
     }
     if let Some(named) = named_effect(d).filter(|e| e.at_range_bound()) {
@@ -381,7 +408,22 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 _ => "—".into(),
             } + &e
                 .excess_spatial_std
-                .map_or(String::new(), |se| format!(" (± {se:.3} over the image)")),
+                .map_or(String::new(), |se| format!(" (± {se:.3} over the image)"))
+                + &match e.confirmation {
+                    Some(Confirmation::Measured {
+                        seeds,
+                        excess,
+                        excess_std,
+                        ..
+                    }) => format!(
+                        "; on {seeds} fresh seeds {excess:+.3}{}",
+                        excess_std.map_or(String::new(), |se| format!(" ± {se:.3}"))
+                    ),
+                    Some(Confirmation::OverBudget { seeds, .. }) => {
+                        format!("; borderline, not measured on {seeds} fresh seeds (budget)")
+                    }
+                    None => String::new(),
+                },
             or_dash(e.gap_explained, |g| format!("{g:.2}")),
             match (e.detection_limit, e.null) {
                 (Some(l), Some(null)) if e.range[0] < null => format!("±{}", short(l)),
@@ -497,6 +539,22 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
 }
 
 /// A value in its parameter's own unit, fixed-point where that reads well.
+/// A refit's first-look excess with its seeds' standard error, `+0.018 ± 0.007`.
+fn excess_text(e: &EffectResult) -> String {
+    let se = e
+        .excess_std
+        .map_or(String::new(), |se| format!(" ± {se:.3}"));
+    format!("{:+.3}{se}", e.excess.unwrap_or(f64::NAN))
+}
+
+/// A refit's first-look excess in its seeds' standard errors, `2.7`.
+fn first_look_z(e: &EffectResult) -> String {
+    match (e.excess, e.excess_std) {
+        (Some(x), Some(se)) => format!("{:.1}", x / se),
+        _ => "—".into(),
+    }
+}
+
 fn short(v: f64) -> String {
     if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
         format!("{v:.3}")

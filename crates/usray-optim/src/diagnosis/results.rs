@@ -149,6 +149,48 @@ pub struct EffectResult {
     /// Why the candidate's scoring or refit could not finish (absent when it
     /// did): the diagnosis goes on without it.
     pub failed: Option<String>,
+    /// A borderline refit's second look on fresh held-out seeds
+    /// ([`super::VerdictRule::borderline`]); absent for every other refit.
+    pub confirmation: Option<Confirmation>,
+}
+
+/// A borderline refit measured again on fresh held-out seeds: one that passes
+/// every test of [`super::name_effect`] but significance over the seeds, its
+/// excess between [`super::VerdictRule::borderline_z`] and
+/// [`super::VerdictRule::min_excess_z`] of its seed standard errors. That
+/// standard error is the simulation's Monte Carlo noise, which more seeds
+/// shrink (the image blocks' is the measured image's own structure, which
+/// they do not); so the refit and the control are rendered on
+/// [`super::DiagnoseOptions::confirmation_seeds`] seeds none of step 4 used,
+/// and the seeds' test is decided on those alone. Deciding on independent
+/// seeds keeps the test's false-alarm rate that of one look at three
+/// standard errors (the first look only chooses what to measure again),
+/// where adding seeds to a borderline result until it passes would not.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Confirmation {
+    /// Measured: the excess over the control on the fresh seeds alone, as
+    /// [`EffectResult::excess`] and [`EffectResult::excess_std`].
+    Measured {
+        /// Fresh seeds rendered.
+        seeds: usize,
+        /// Mean excess on them, in units of the calibrated held-out loss.
+        excess: f64,
+        /// Its standard error over them (absent with one seed).
+        excess_std: Option<f64>,
+        /// Wall time of the second look, seconds.
+        seconds: f64,
+    },
+    /// Not measured: the budget left could not pay for it, so the verdict
+    /// cannot say `"none"` ([`super::unnamed_verdict`]).
+    OverBudget {
+        /// Fresh seeds it would have rendered.
+        seeds: usize,
+        /// Its estimated time, seconds.
+        estimate_s: f64,
+        /// The budget left when it was due, seconds.
+        left_s: f64,
+    },
 }
 
 impl EffectResult {
@@ -174,7 +216,7 @@ impl EffectResult {
     ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01), excess_spatial_std: None,
     ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
     ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None,
-    ///     failed: None,
+    ///     failed: None, confirmation: None,
     /// };
     /// e.params.insert(e.path.clone(), 9.999);
     /// assert!(e.at_range_bound());
@@ -237,7 +279,7 @@ impl EffectResult {
     ///     excess: Some(0.05), excess_std: None, excess_spatial_std: None, gap_explained: None,
     ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
     ///     detection_limit: None, tolerance: Some(3.9), absence_cost: None,
-    ///     absence_cost_std: None, additivity: None, failed: None,
+    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None,
     /// };
     /// e.params.insert("medium.sound_speed_m_s".into(), 1477.7);
     /// assert!(e.within_tolerance());
@@ -292,7 +334,7 @@ impl EffectResult {
     ///     gap_explained: None, held_out_losses: vec![],
     ///     params: BTreeMap::from([(path, 0.23e-3)]), params_std: BTreeMap::new(),
     ///     detection_limit: Some(0.055e-3), tolerance: None, absence_cost: None,
-    ///     absence_cost_std: None, additivity: None, failed: None,
+    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None,
     /// };
     /// assert!(e.within_detection_limit() && e.indistinct_from_null());
     /// (e.absence_cost, e.absence_cost_std) = (Some(0.002), Some(0.003));
@@ -324,7 +366,7 @@ impl EffectResult {
     ///     held_out_losses: vec![9e-3],
     ///     params: BTreeMap::from([(path.clone(), 1.5)]),
     ///     params_std: BTreeMap::from([(path, Some(0.75))]),
-    ///     detection_limit: Some(2.25), tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
+    ///     detection_limit: Some(2.25), tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None,
     /// };
     /// // Found +1.5 dB/cm at a spread of 0.75: two spreads from no gain.
     /// assert_eq!(e.null_z(), Some(2.0));
@@ -352,6 +394,9 @@ pub struct Timings {
     /// How well the calibration and each refit determine their parameters
     /// (the Jacobian's and the extra seeds' renders).
     pub spread_s: f64,
+    /// Step 4's second look at borderline refits on fresh seeds
+    /// ([`Confirmation`]).
+    pub confirmation_s: f64,
     /// The whole diagnosis.
     pub total_s: f64,
 }

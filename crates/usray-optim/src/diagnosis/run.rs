@@ -5,6 +5,7 @@ use super::calibration::{
     calibrate_within_budget, calibration_spec, default_free_params, FreeParam,
 };
 use super::catalogue::{catalogue, diagnosis_bounces, Candidate};
+use super::confirmation::second_looks;
 use super::options::{DiagnoseOptions, FirstRound};
 use super::parameter_candidates::parameter_candidates;
 use super::refits::{null_refit, quarter_from_null, refit_leading, Control};
@@ -124,6 +125,7 @@ pub fn diagnose(
     let Control {
         null_refit,
         baseline,
+        baseline_scene,
     } = null_refit(&stage, &specs, measured, held_data, opts)?;
     timings.null_refit_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
@@ -150,6 +152,22 @@ pub fn diagnose(
             e.additivity = additivity(&e.path, e.excess, first, stage.held_loss);
         }
     }
+
+    // A second look at a refit that would be named but for its standard
+    // error over the seeds: it and the control on fresh seeds.
+    let t = Instant::now();
+    second_looks(
+        &refits,
+        &mut effects,
+        &stage,
+        &baseline_scene,
+        held_data,
+        opts,
+        noise_check.passed,
+        started,
+        &mut progress,
+    )?;
+    timings.confirmation_s = t.elapsed().as_secs_f64();
 
     // Step 5: verdict.
     let refitted: Vec<EffectResult> = refits

@@ -284,6 +284,7 @@ pub(crate) fn screen(
             absence_cost_std: None,
             additivity: None,
             failed,
+            confirmation: None,
         });
     }
     let mut order: Vec<usize> = (0..effects.len()).collect();

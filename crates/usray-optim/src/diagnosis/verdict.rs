@@ -1,7 +1,7 @@
 //! Step 5 of a diagnosis: which refitted effect, if any, the data name, and
 //! what to say when none qualifies (module docs of [`crate::diagnosis`]).
 
-use super::results::EffectResult;
+use super::results::{Confirmation, EffectResult};
 
 /// Held-out shrinks closer than this to the verdict's are reported as
 /// [`Verdict::alternatives`]: the data do not tell such effects apart
@@ -49,18 +49,28 @@ pub struct VerdictRule {
     /// sound speed (a one-step screen of a rugged loss); 0.1 keeps a factor of
     /// two below that.
     pub min_additivity: f64,
+    /// A refit whose excess is at least this many of its seed standard
+    /// errors, but fewer than [`VerdictRule::min_excess_z`], and that passes
+    /// every other test of [`name_effect`], is *borderline*
+    /// ([`VerdictRule::borderline`]): it is measured again on fresh seeds
+    /// ([`Confirmation`]) and the seeds' test decided there (default 2: a
+    /// Gaussian excess reaches it by chance with probability 2.3%, so a
+    /// second look is rarely spent on nothing, and an effect whose true
+    /// excess is three standard errors reaches it 84% of the time).
+    pub borderline_z: f64,
 }
 
 impl Default for VerdictRule {
     /// Excess ≥ 3 standard errors over the seeds and ≥ 3 over the image's
     /// blocks; a large excess is 0.2; a later round's effect has additivity
-    /// ≥ 0.1.
+    /// ≥ 0.1; a refit is borderline from 2 seed standard errors.
     fn default() -> Self {
         Self {
             min_excess_z: 3.0,
             min_spatial_z: 3.0,
             large_excess: 0.2,
             min_additivity: 0.1,
+            borderline_z: 2.0,
         }
     }
 }
@@ -71,16 +81,78 @@ impl VerdictRule {
     /// seeds (skipped with one seed) and [`VerdictRule::min_spatial_z`] over
     /// the image's blocks. The first of [`name_effect`]'s conditions, which
     /// the report also uses for the refits it passes over.
+    ///
+    /// Where a borderline refit was measured again on fresh seeds
+    /// ([`Confirmation::Measured`]), the seeds' test is decided on those seeds
+    /// alone; the blocks' test stays the first look's.
     #[must_use]
     pub fn significant(&self, e: &EffectResult) -> bool {
         let Some(excess) = e.excess else {
             return false;
         };
+        let (seeds_excess, seeds_std) = match e.confirmation {
+            Some(Confirmation::Measured {
+                excess, excess_std, ..
+            }) => (excess, excess_std),
+            _ => (excess, e.excess_std),
+        };
         excess > 0.0
-            && e.excess_std
-                .is_none_or(|se| excess >= self.min_excess_z * se)
-            && e.excess_spatial_std
-                .is_some_and(|se| excess >= self.min_spatial_z * se)
+            && seeds_excess > 0.0
+            && seeds_std.is_none_or(|se| seeds_excess >= self.min_excess_z * se)
+            && self.spread_over_image(e)
+    }
+
+    /// The blocks' test of [`VerdictRule::significant`]: the first look's
+    /// excess is at least [`VerdictRule::min_spatial_z`] of its standard
+    /// error over the image's blocks.
+    fn spread_over_image(&self, e: &EffectResult) -> bool {
+        e.excess.is_some_and(|x| {
+            e.excess_spatial_std
+                .is_some_and(|se| x >= self.min_spatial_z * se)
+        })
+    }
+
+    /// Whether `e`'s first look is borderline: spread over the image, but
+    /// its positive excess between [`VerdictRule::borderline_z`] and
+    /// [`VerdictRule::min_excess_z`] of its standard error over the seeds,
+    /// which more seeds would shrink ([`Confirmation`]).
+    ///
+    /// ```
+    /// # use std::collections::BTreeMap;
+    /// use usray_optim::{Confirmation, EffectResult, VerdictRule};
+    /// let mut e = EffectResult {
+    ///     effect: "depth_gain".into(), path: "acquisition.depth_gain_db_per_cm".into(),
+    ///     score: 0.02, onset: 0.0, range: [0.0, 10.0], null: Some(0.0), gradient: -1e-3,
+    ///     loss_onset: 1.0, loss_after: Some(0.98), shrink: Some(0.02), shrink_std: None,
+    ///     excess: Some(0.018), excess_std: Some(0.0067), excess_spatial_std: Some(0.0059),
+    ///     gap_explained: None, held_out_losses: vec![], params: BTreeMap::new(),
+    ///     params_std: BTreeMap::new(), detection_limit: None, tolerance: None,
+    ///     absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
+    ///     confirmation: None,
+    /// };
+    /// let rule = VerdictRule::default();
+    /// // 2.7 standard errors over six seeds, 3.05 over the image: borderline.
+    /// assert!(rule.borderline(&e) && !rule.significant(&e));
+    /// // Measured again on 24 fresh seeds, the seeds' test is decided there.
+    /// e.confirmation = Some(Confirmation::Measured {
+    ///     seeds: 24, excess: 0.016, excess_std: Some(0.004), seconds: 3.0,
+    /// });
+    /// assert!(rule.significant(&e) && !rule.borderline(&e));
+    /// e.confirmation = Some(Confirmation::Measured {
+    ///     seeds: 24, excess: 0.006, excess_std: Some(0.004), seconds: 3.0,
+    /// });
+    /// assert!(!rule.significant(&e));
+    /// ```
+    #[must_use]
+    pub fn borderline(&self, e: &EffectResult) -> bool {
+        let (Some(excess), Some(se)) = (e.excess, e.excess_std) else {
+            return false;
+        };
+        e.confirmation.is_none()
+            && excess > 0.0
+            && excess >= self.borderline_z * se
+            && excess < self.min_excess_z * se
+            && self.spread_over_image(e)
     }
 }
 
@@ -139,7 +211,7 @@ pub struct Verdict {
 ///     shrink: Some(shrink), shrink_std: Some(0.01), excess: Some(excess),
 ///     excess_std: Some(0.01), excess_spatial_std: Some(spatial), gap_explained: Some(0.5),
 ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
-///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
+///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None,
 /// };
 /// let rule = VerdictRule::default();
 /// // Shrinks 0.80 and 0.78 tie; the first has the higher score.
@@ -182,14 +254,7 @@ pub fn name_effect(
     rule: &VerdictRule,
 ) -> Option<(usize, Vec<usize>)> {
     let qualifies = |e: &EffectResult| {
-        let large_enough = noise_passed || e.excess.is_some_and(|x| x >= rule.large_excess);
-        let additive = e.additivity.is_none_or(|a| a >= rule.min_additivity);
-        rule.significant(e)
-            && large_enough
-            && additive
-            && !e.at_range_bound()
-            && !e.within_tolerance()
-            && !e.indistinct_from_null()
+        rule.significant(e) && passes_all_but_significance(e, noise_passed, rule)
     };
     let shrink = |i: usize| refits[i].shrink.unwrap_or(f64::NEG_INFINITY);
     let qualified: Vec<usize> = (0..refits.len())
@@ -210,6 +275,27 @@ pub fn name_effect(
     Some((named, tied))
 }
 
+/// [`name_effect`]'s tests other than [`VerdictRule::significant`]: large
+/// enough where the noise failed its check, additive in a later round, inside
+/// its range, beyond its tolerance and told from its null.
+fn passes_all_but_significance(e: &EffectResult, noise_passed: bool, rule: &VerdictRule) -> bool {
+    let large_enough = noise_passed || e.excess.is_some_and(|x| x >= rule.large_excess);
+    let additive = e.additivity.is_none_or(|a| a >= rule.min_additivity);
+    large_enough
+        && additive
+        && !e.at_range_bound()
+        && !e.within_tolerance()
+        && !e.indistinct_from_null()
+}
+
+/// Whether `e` would be named but for its first look's standard error over
+/// the seeds ([`VerdictRule::borderline`], every other test of
+/// [`name_effect`] passed): a refit to measure again on fresh seeds
+/// ([`Confirmation`]).
+pub(crate) fn needs_second_look(e: &EffectResult, noise_passed: bool, rule: &VerdictRule) -> bool {
+    rule.borderline(e) && passes_all_but_significance(e, noise_passed, rule)
+}
+
 /// The verdict when no refit qualifies ([`name_effect`]).
 ///
 /// A refit that still beats the null refit by a large margin (excess at least
@@ -222,7 +308,9 @@ pub fn name_effect(
 /// simulation's noise is a small enough share of the gap (`noise_passed`,
 /// [`crate::NoiseCheck`]) to have seen an effect above its limit of detection,
 /// `"none"`; where it is not, `"inconclusive"`, never `"none"`: the noise may
-/// hide an effect.
+/// hide an effect. Nor is it `"none"` where a borderline refit could not be
+/// measured again within the budget ([`Confirmation::OverBudget`]): more
+/// seeds might have named it.
 ///
 /// ```
 /// use usray_optim::{unnamed_verdict, VerdictRule};
@@ -240,7 +328,10 @@ pub fn unnamed_verdict(
             x >= rule.large_excess && e.excess_std.is_none_or(|se| x >= rule.min_excess_z * se)
         })
     });
-    match (significant, noise_passed) {
+    let undecided = refits
+        .iter()
+        .any(|e| matches!(e.confirmation, Some(Confirmation::OverBudget { .. })));
+    match (significant, noise_passed && !undecided) {
         (true, _) => "unexplained",
         (false, true) => "none",
         (false, false) => "inconclusive",
