@@ -207,7 +207,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             }
         }
         e => {
-            writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {:+.0}%.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, -100.0 * d.null_refit.shrink)?;
+            writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {}.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, signed_percent(-d.null_refit.shrink))?;
             if let Some(g) = named_effect(d).and_then(|x| x.gap_explained) {
                 writeln!(r, "It removes {:.0}% of the gap above the Monte Carlo noise level ({:.4e}).", 100.0 * g, d.noise_loss)?;
             }
@@ -539,6 +539,17 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
 }
 
 /// A value in its parameter's own unit, fixed-point where that reads well.
+/// A fraction as a signed whole percentage, `+3%`, `−12%`, and `0%` for one
+/// that rounds to zero (not `-0%`).
+fn signed_percent(fraction: f64) -> String {
+    let p = (100.0 * fraction).round();
+    if p == 0.0 {
+        "0%".into()
+    } else {
+        format!("{p:+.0}%")
+    }
+}
+
 /// A refit's first-look excess with its seeds' standard error, `+0.018 ± 0.007`.
 fn excess_text(e: &EffectResult) -> String {
     let se = e
@@ -723,4 +734,17 @@ fn residual_kinds(r: &mut String, k: &ResidualReport) -> fmt::Result {
             .collect(),
     )?;
     writeln!(r, "\n(Speckle SNR is 1.91 for fully developed speckle; clipped: pixels below the dynamic range.)")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::signed_percent;
+
+    #[test]
+    fn a_change_that_rounds_to_zero_has_no_sign() {
+        assert_eq!(signed_percent(-0.0004), "0%");
+        assert_eq!(signed_percent(0.0004), "0%");
+        assert_eq!(signed_percent(0.031), "+3%");
+        assert_eq!(signed_percent(-0.12), "-12%");
+    }
 }
