@@ -53,10 +53,11 @@ pub struct VerdictRule {
     /// errors, but fewer than [`VerdictRule::min_excess_z`], and that passes
     /// every other test of [`name_effect`], is *borderline*
     /// ([`VerdictRule::borderline`]): it is measured again on fresh seeds
-    /// ([`Confirmation`]) and the seeds' test decided there (default 2: a
-    /// Gaussian excess reaches it by chance with probability 2.3%, so a
-    /// second look is rarely spent on nothing, and an effect whose true
-    /// excess is three standard errors reaches it 84% of the time).
+    /// ([`Confirmation`]) and the seeds' test decided there (default 2:
+    /// over six seeds the excess of a refit that gains nothing, in its
+    /// estimated standard errors, follows Student's t with 5 degrees of
+    /// freedom and reaches 2 with probability 5%, so a second look is
+    /// rarely spent on nothing).
     pub borderline_z: f64,
 }
 
