@@ -313,8 +313,12 @@ pub enum Command {
         /// budget bounds the rays chosen and the compound rounds: a further
         /// round starts only if the budget left is at least the last round's
         /// time, and stops after its calibration if its estimated time is
-        /// more than what is left (the report says why). The first round
-        /// always completes. Without it the rays are as given.
+        /// more than what is left (the report says why). It also pays for the
+        /// second look at a borderline candidate (2–3 standard errors over
+        /// the held-out seeds: it and the control rendered on 24 fresh
+        /// seeds); without the budget for that the verdict is `inconclusive`,
+        /// not `none`. The first round always completes. Without it the rays
+        /// are as given.
         #[arg(long, value_name = "SECONDS")]
         budget: Option<f64>,
         /// Compound gaps: once an effect is named, switch it on at its refitted
