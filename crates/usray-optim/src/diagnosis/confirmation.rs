@@ -12,23 +12,17 @@ use crate::OptimError;
 use std::time::Instant;
 use usray_transport::{RenderOptions, Scene};
 
-/// The render options of the fresh seeds of a second look: held-out seeds
-/// `held_out_seeds … held_out_seeds + confirmation_seeds` of the stage's seed
-/// ([`held_out_seed`]), none of which step 4 rendered.
-fn fresh_renders(stage: &Stage, opts: &DiagnoseOptions) -> Vec<RenderOptions> {
-    let seed = stage.render_s.seed.unwrap_or_default();
-    (opts.held_out_seeds..opts.held_out_seeds + opts.confirmation_seeds)
+/// The render options of a second look's `count` fresh seeds: held-out seeds
+/// `first … first + count` ([`held_out_seed`]) of `render_s`'s seed, where
+/// step 4 rendered `0 … first` (`first` = [`DiagnoseOptions::held_out_seeds`]).
+fn fresh_renders(render_s: &RenderOptions, first: usize, count: usize) -> Vec<RenderOptions> {
+    let seed = render_s.seed.unwrap_or_default();
+    (first..first + count)
         .map(|j| RenderOptions {
             seed: Some(held_out_seed(seed, j)),
-            ..stage.render_s.clone()
+            ..render_s.clone()
         })
         .collect()
-}
-
-/// The per-seed excess of `after`'s losses over `baseline`'s in units of
-/// `scale` (the calibrated held-out loss), its mean and standard error.
-fn excess_on(baseline: &[f64], after: &[f64], scale: f64) -> (f64, Option<f64>) {
-    mean_and_se(&relative_differences(baseline, after, scale))
 }
 
 /// Measures every borderline refit of `refits` that passes the verdict's
@@ -60,7 +54,11 @@ pub(crate) fn second_looks(
         .collect();
     let shrink = |r: &Refitted| effects[r.candidate].shrink.unwrap_or(f64::NEG_INFINITY);
     due.sort_by(|a, b| shrink(b).total_cmp(&shrink(a)));
-    let renders = fresh_renders(stage, opts);
+    let renders = fresh_renders(
+        &stage.render_s,
+        opts.held_out_seeds,
+        opts.confirmation_seeds,
+    );
     let mut baseline: Option<Vec<f64>> = None;
     for Refitted {
         candidate: k,
@@ -99,12 +97,13 @@ pub(crate) fn second_looks(
                 .map(|e| e.loss)
                 .collect())
         };
-        if baseline.is_none() {
-            baseline = Some(losses(baseline_scene)?);
-        }
+        let base = match &mut baseline {
+            Some(base) => base,
+            none => none.insert(losses(baseline_scene)?),
+        };
         let after = losses(scene)?;
-        let base = baseline.as_deref().unwrap_or_default();
-        let (excess, excess_std) = excess_on(base, &after, stage.held_loss);
+        let (excess, excess_std) =
+            mean_and_se(&relative_differences(base, &after, stage.held_loss));
         effects[k].confirmation = Some(Confirmation::Measured {
             seeds: renders.len(),
             excess,
@@ -121,16 +120,21 @@ mod tests {
 
     #[test]
     fn the_fresh_seeds_are_none_of_step_4s() {
-        // Step 4 renders held-out seeds 0…K−1 of seed s; the second look
-        // K…K+M−1, and the calibration s itself.
+        // Step 4 renders held-out seeds 0…K−1 of seed s (as the calibration
+        // builds them) and s itself; the second look's are none of those.
         let opts = DiagnoseOptions::default();
         let s = 1234;
+        let render_s = RenderOptions {
+            seed: Some(s),
+            rays_per_element: Some(7),
+            ..Default::default()
+        };
         let step4: Vec<u64> = (0..opts.held_out_seeds)
             .map(|j| held_out_seed(s, j))
             .collect();
-        let fresh: Vec<u64> = (opts.held_out_seeds..opts.held_out_seeds + opts.confirmation_seeds)
-            .map(|j| held_out_seed(s, j))
-            .collect();
+        let renders = fresh_renders(&render_s, opts.held_out_seeds, opts.confirmation_seeds);
+        assert!(renders.iter().all(|r| r.rays_per_element == Some(7)));
+        let fresh: Vec<u64> = renders.iter().filter_map(|r| r.seed).collect();
         assert_eq!(fresh.len(), opts.confirmation_seeds);
         assert!(fresh.iter().all(|f| !step4.contains(f) && *f != s));
         let mut unique = fresh.clone();

@@ -244,7 +244,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             .filter(|e| e.within_tolerance() && d.rule.significant(e))
             .filter_map(|e| {
                 let (excess, se_image) = (e.excess?, e.excess_spatial_std?);
-                let se = e.excess_std.map_or(String::new(), |se| format!(" ± {se:.3}"));
+                let se = plus_minus(e.excess_std);
                 Some(format!(
                     "{} (`{}`) gained {excess:+.3}{se} (± {se_image:.3} over the image) over the null refit but moved {} from the modelled value, within its tolerance ±{}",
                     e.effect,
@@ -274,7 +274,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             } else {
                 "not significant there"
             };
-            writeln!(r, "**Measured again on fresh seeds:** `{}`'s gain over the null refit, {} ({} standard errors over the {} held-out seeds, between {:.0} and {:.0}: borderline), was rendered again with the control on {seeds} seeds none of the above used: {excess:+.3}{}{z}, {outcome}. The seeds' test is decided on those alone, so the second look does not raise the chance of naming an effect by chance.\n", e.effect, excess_text(e), first_look_z(e), e.held_out_losses.len(), d.rule.borderline_z, d.rule.min_excess_z, excess_std.map_or(String::new(), |se| format!(" ± {se:.3}")))?;
+            writeln!(r, "**Measured again on fresh seeds:** `{}`'s gain over the null refit, {} ({} standard errors over the {} held-out seeds, between {:.0} and {:.0}: borderline), was rendered again with the control on {seeds} seeds none of the above used: {excess:+.3}{}{z}, {outcome}. The seeds' test is decided on those alone, so the second look does not raise the chance of naming an effect by chance.\n", e.effect, excess_text(e), first_look_z(e), e.held_out_losses.len(), d.rule.borderline_z, d.rule.min_excess_z, plus_minus(excess_std))?;
         }
     }
     if let Some(named) = named_effect(d).filter(|e| e.at_range_bound()) {
@@ -402,13 +402,9 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 (Some(v), None) => format!("{v:.3}"),
                 _ => "—".into(),
             },
-            match (e.excess, e.excess_std) {
-                (Some(v), Some(se)) => format!("{v:+.3} ± {se:.3}"),
-                (Some(v), None) => format!("{v:+.3}"),
-                _ => "—".into(),
-            } + &e
-                .excess_spatial_std
-                .map_or(String::new(), |se| format!(" (± {se:.3} over the image)"))
+            excess_text(e)
+                + &e.excess_spatial_std
+                    .map_or(String::new(), |se| format!(" (± {se:.3} over the image)"))
                 + &match e.confirmation {
                     Some(Confirmation::Measured {
                         seeds,
@@ -417,7 +413,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                         ..
                     }) => format!(
                         "; on {seeds} fresh seeds {excess:+.3}{}",
-                        excess_std.map_or(String::new(), |se| format!(" ± {se:.3}"))
+                        plus_minus(excess_std)
                     ),
                     Some(Confirmation::OverBudget { seeds, .. }) => {
                         format!("; borderline, not measured on {seeds} fresh seeds (budget)")
@@ -538,7 +534,6 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     Ok(r)
 }
 
-/// A value in its parameter's own unit, fixed-point where that reads well.
 /// A fraction as a signed whole percentage, `+3%`, `−12%`, and `0%` for one
 /// that rounds to zero (not `-0%`).
 fn signed_percent(fraction: f64) -> String {
@@ -550,12 +545,17 @@ fn signed_percent(fraction: f64) -> String {
     }
 }
 
-/// A refit's first-look excess with its seeds' standard error, `+0.018 ± 0.007`.
+/// ` ± 0.007` for a standard error, nothing without one.
+fn plus_minus(se: Option<f64>) -> String {
+    se.map_or(String::new(), |se| format!(" ± {se:.3}"))
+}
+
+/// A refit's first-look excess with its seeds' standard error, `+0.018 ±
+/// 0.007` (`—` when not refitted).
 fn excess_text(e: &EffectResult) -> String {
-    let se = e
-        .excess_std
-        .map_or(String::new(), |se| format!(" ± {se:.3}"));
-    format!("{:+.3}{se}", e.excess.unwrap_or(f64::NAN))
+    e.excess.map_or("—".into(), |x| {
+        format!("{x:+.3}{}", plus_minus(e.excess_std))
+    })
 }
 
 /// A refit's first-look excess in its seeds' standard errors, `2.7`.
@@ -566,6 +566,7 @@ fn first_look_z(e: &EffectResult) -> String {
     }
 }
 
+/// A value in its parameter's own unit, fixed-point where that reads well.
 fn short(v: f64) -> String {
     if v == 0.0 || (1e-2..1e4).contains(&v.abs()) {
         format!("{v:.3}")
