@@ -10,8 +10,8 @@ use usray::optim::blind::{
     draw, measured_image, verdict_is_false_effect, BlindOptions, Draw, KINDS,
 };
 use usray::optim::{
-    catalogue, default_free_params, diagnose, parameter_candidates, score_candidate, Candidate,
-    DiagnoseOptions, Diagnosis, Journal, LossSetup, Objective,
+    catalogue, diagnose, parameter_candidates, score_candidate, Candidate, DiagnoseOptions,
+    Diagnosis, Journal, LossSetup, Objective,
 };
 use usray::signal::ChannelData;
 use usray::transport::scene::Owner;
@@ -127,8 +127,9 @@ fn every_candidate_at_its_null_renders_the_base_model() {
     let differing_samples = |scene: &Scene| differing(&reference, scene);
     let mut candidates = catalogue(&base);
     assert!(candidates.len() >= 6, "{candidates:?}");
-    // The parameter candidates too: each one's null is the scene's own value.
-    let parameters = parameter_candidates(&base, &default_free_params(&base));
+    // The parameter candidates too, each of them (none calibrated): each one's
+    // null is the scene's own value.
+    let parameters = parameter_candidates(&base, &[]);
     assert!(parameters.len() >= 3, "{parameters:?}");
     candidates.extend(parameters);
     for c in &candidates {
