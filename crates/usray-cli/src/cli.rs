@@ -266,7 +266,7 @@ pub enum Command {
         measured: PathBuf,
         /// Free parameters of the base model, comma-separated, each optionally
         /// `PATH=MIN:MAX` (default: each object's radius, each object material's
-        /// impedance and roughness, and the probe's centre frequency).
+        /// impedance and roughness).
         #[arg(long, value_delimiter = ',')]
         params: Vec<String>,
         /// Adam iterations of the calibration and of each confirming refit.

@@ -19,24 +19,16 @@ use usray_transport::scene::Owner;
 use usray_transport::{Field, ParamKey, RenderOptions, Scene};
 
 /// The documented default free parameters of the base model: each object's
-/// radius (cylinders, spheres), for each object's material its impedance and
-/// (if rough) roughness, and the probe's centre frequency.
+/// radius (cylinders, spheres) and, for each object's material, its impedance
+/// and (if rough) roughness.
 ///
-/// The echoes' centre frequency is rarely the probe's nominal one: the
-/// transducer's response, the path's attenuation and, in simulated data, the
-/// simulator's grid move it by a few percent (k-Wave's grid of `bench/kwave`:
-/// 2.4–2.9% lower). Left fixed, that offset is a gap that a lower centre
-/// frequency, or any effect that lowers the spectrum (an attenuation), would
-/// be credited with; calibrated, the attenuation is told apart by what varies
-/// with depth (`docs/diagnosis.md`, "Tier (b)").
-///
-/// ```
-/// use usray_transport::{Field, ParamKey, Scene};
-/// let scene = Scene::load("../../scenes/cylinder.toml").unwrap();
-/// let free = usray_optim::default_free_params(&scene);
-/// assert!(free.contains(&ParamKey::probe(Field::CenterFrequency)));
-/// assert!(!free.contains(&ParamKey::probe(Field::Cycles)));
-/// ```
+/// The probe's centre frequency is not among them, though echoes are rarely
+/// centred at the nominal one: calibrated, it also lengthens the model's
+/// echoes to match any effect that lengthens the data's (a thicker wall, a
+/// longer pulse, a wrong speed blurring the transmits), and on the
+/// benchmarks of `bench/` more effects were missed that way than the
+/// offsets it took up had cost (`docs/diagnosis.md`, "Known limits"). It
+/// stays a candidate ([`crate::parameter_candidates`]); `--params` frees it.
 pub fn default_free_params(scene: &Scene) -> Vec<ParamKey> {
     let mut out = Vec::new();
     let mut seen = Vec::new();
@@ -56,7 +48,6 @@ pub fn default_free_params(scene: &Scene) -> Vec<ParamKey> {
             }
         }
     }
-    out.push(ParamKey::probe(Field::CenterFrequency));
     out
 }
 
