@@ -22,6 +22,7 @@
 //! | [`io`] | channel data and B-mode files, [`write_atomic`] |
 //! | [`mat`] | MATLAB `.mat` reader (v5 here, v7.3/HDF5 in a private module) and Verasonics plane-wave import |
 //! | [`uff`] | UFF (USTB, PICMUS) plane-wave channel data: import and export |
+//! | [`spectral_shift`](mod@spectral_shift) | the echoes' mean frequency, measured against a model's, along their path: the spectral-shift estimate of attenuation |
 //!
 //! ## Frames: the `frame` key (extension of CONTRACT §2)
 //!
@@ -98,6 +99,7 @@ pub mod mat;
 mod mat73;
 pub mod post;
 pub mod pulse;
+pub mod spectral_shift;
 pub mod transmit;
 pub mod uff;
 
@@ -106,6 +108,7 @@ pub use channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta};
 pub use error::{Result, SignalError};
 pub use import::{import_mat, import_mat_with, ImportOptions};
 pub use io::{read_channels, write_atomic, write_channels};
+pub use spectral_shift::{spectral_shift, EchoSpectrum, SpectralShift, SpectralShiftOptions};
 /// Complex sample type used for IQ and analytic data (re-exported from `rustfft`).
 pub use rustfft::num_complex::Complex64;
 pub use uff::{export_uff, import_uff, import_uff_with};

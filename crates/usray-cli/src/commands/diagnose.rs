@@ -89,6 +89,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         budget_s: args.budget_s,
         smoothing_wavelengths: args.smoothing_wavelengths,
         noise_floor: args.noise_floor,
+        measured_channels: measured_channels(measured, args.held_out_frames)?,
         ..Default::default()
     };
     // The calibration and the refits (the null and each confirmed candidate),
@@ -170,4 +171,23 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         common.out.display()
     );
     Ok(())
+}
+
+/// The measured channel data, where `measured` is a channel-data file and its
+/// transmits are the model's (not split into frames for `--held-out-frames`):
+/// the diagnosis checks a centre-frequency refit against their spectra.
+fn measured_channels(
+    measured: &Path,
+    held_out_frames: bool,
+) -> Result<Option<usray_optim::MeasuredChannels>> {
+    let is_channels = measured
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    if !is_channels || held_out_frames {
+        return Ok(None);
+    }
+    let channels = usray_signal::read_channels(measured)?;
+    Ok(Some(usray_optim::MeasuredChannels(std::sync::Arc::new(
+        channels,
+    ))))
 }

@@ -120,6 +120,7 @@
 //! | `held_out` | step 4's statistics: held-out seeds, losses, means and standard errors |
 //! | `spatial` | step 4's spatial standard error of an excess (blocks of the image) |
 //! | `confirmation` | step 4's second look at a borderline refit on fresh seeds ([`Confirmation`]) |
+//! | `spectral_check` | step 5's check of a centre-frequency refit against the measured echoes' spectral shift along their path ([`VerdictRule::min_spectral_z`]) |
 //! | `noise_budget` | the simulation's noise against the gap ([`NoiseCheck`]) |
 //! | `verdict` | step 5 ([`name_effect`], [`unnamed_verdict`], [`VerdictRule`]) |
 //! | `results` | what a diagnosis found ([`Diagnosis`]) |
@@ -140,6 +141,7 @@ mod results;
 mod run;
 mod screening;
 mod spatial;
+mod spectral_check;
 mod verdict;
 
 pub use calibration::{
@@ -151,7 +153,7 @@ pub use catalogue::{
 };
 pub use held_out::{held_out_seed, mean_and_se};
 pub use noise_budget::{noise_exponent, rays_needed, simulation_noise_share, NoiseCheck};
-pub use options::{DiagnoseOptions, FirstRound};
+pub use options::{DiagnoseOptions, FirstRound, MeasuredChannels};
 pub use parameter_candidates::parameter_candidates;
 pub use report::Report;
 pub use results::{Calibrated, Confirmation, Diagnosis, EffectResult, NullRefit, Timings};

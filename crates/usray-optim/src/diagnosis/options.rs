@@ -6,6 +6,7 @@ use crate::fit::FitOptions;
 use crate::journal::Journal;
 use crate::OptimError;
 use std::collections::BTreeMap;
+use usray_signal::ChannelData;
 use usray_transport::RenderOptions;
 
 /// What the first round of a compound diagnosis found, against which a later
@@ -22,6 +23,18 @@ pub struct FirstRound {
     /// its calibration stage, and stops there when that is more than its
     /// budget ([`DiagnoseOptions::budget_s`]).
     pub seconds_over_calibration: f64,
+}
+
+/// Measured channel data beside the measured image
+/// ([`DiagnoseOptions::measured_channels`]); shown by its shape alone.
+#[derive(Clone)]
+pub struct MeasuredChannels(pub std::sync::Arc<ChannelData>);
+
+impl std::fmt::Debug for MeasuredChannels {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (t, e, n) = self.0.shape();
+        write!(f, "MeasuredChannels({t} transmits × {e} elements × {n} samples)")
+    }
 }
 
 /// Settings of a diagnosis.
@@ -111,6 +124,11 @@ pub struct DiagnoseOptions {
     /// goes ([`Journal`]; default: nowhere). Started again on the journal of
     /// a killed run, it skips what was done and ends with the same results.
     pub journal: Journal,
+    /// The measured channel data the measured image was formed from, where
+    /// the data are channels (default `None`: an image only). With them a
+    /// centre-frequency refit is checked against how the echoes' spectra
+    /// shift along their path ([`super::VerdictRule::min_spectral_z`]).
+    pub measured_channels: Option<MeasuredChannels>,
     /// Set by [`super::diagnose_compound`] for a later round (default `None`,
     /// a first round): what the first round found, for
     /// [`super::EffectResult::additivity`].
@@ -137,6 +155,7 @@ impl Default for DiagnoseOptions {
             smoothing_wavelengths: 0.0,
             noise_floor: false,
             journal: Journal::default(),
+            measured_channels: None,
             first_round: None,
         }
     }

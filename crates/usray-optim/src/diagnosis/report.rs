@@ -16,6 +16,7 @@ use crate::objective::grid_shape;
 use crate::OptimError;
 use std::fmt::{self, Write as _};
 use std::path::Path;
+use usray_signal::SpectralShift;
 use usray_transport::Scene;
 
 /// A diagnosis's rounds ([`super::diagnose_compound`]) and what the report
@@ -109,6 +110,7 @@ impl Report<'_> {
                         "loss_held_out": r.calibrated.loss_held_out,
                         "seconds": r.timings.total_s,
                         "next_round_stopped": r.next_round_stopped,
+                        "spectral_shift": r.spectral_shift,
                         "effects": r.effects,
                     })
                 })
@@ -279,6 +281,9 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     }
     if let Some(named) = named_effect(d).filter(|e| e.at_range_bound()) {
         writeln!(r, "**At the bound of its range:** the refit left `{}` at {:.4e}, the edge of the range [{:.4e}, {:.4e}] it may take; the data may want a stronger effect than the range allows, so this value is a limit, not an estimate.\n", named.path, named.params[&named.path], named.range[0], named.range[1])?;
+    }
+    if let Some(shift) = &d.spectral_shift {
+        spectral_paragraph(&mut r, "", d, shift)?;
     }
     if !d.verdict.alternatives.is_empty() {
         let alt: Vec<String> = d
@@ -505,6 +510,10 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             writeln!(r, "\n{}{rest}.", first.to_uppercase())?;
         }
         for (i, round) in rounds.iter().enumerate().skip(1) {
+            if let Some(shift) = &round.spectral_shift {
+                writeln!(r)?;
+                spectral_paragraph(&mut r, &format!("Round {}: ", i + 1), round, shift)?;
+            }
             for e in &round.effects {
                 let Some(a) = e.additivity.filter(|a| *a < round.rule.min_additivity) else {
                     continue;
@@ -532,6 +541,35 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         )?;
     }
     Ok(r)
+}
+
+/// What the spectral check of a centre-frequency refit found
+/// ([`Diagnosis::spectral_shift`]).
+fn spectral_paragraph(
+    r: &mut String,
+    heading: &str,
+    d: &Diagnosis,
+    shift: &SpectralShift,
+) -> fmt::Result {
+    let Some(cf) = d.effects.iter().find(|e| e.spectral_z.is_some()) else {
+        return Ok(());
+    };
+    let reading = if d.rule.spectrum_contradicts(cf) {
+        "so the centre frequency, which would shift every echo alike, is not named: it stands in for the attenuation"
+    } else {
+        "which does not contradict a centre frequency that shifts every echo alike"
+    };
+    writeln!(
+        r,
+        "**{heading}The echoes' spectra:** over {} echoes of the measured channel data, their mean frequency lies {:+.3} MHz from the calibrated model's and changes by {:+.3} MHz per cm of two-way path against it: as an attenuation beyond the model's (Kuc 1984: `α₀ = −slope / 2σ²`, σ² = {:.3} MHz² the measured spectrum's variance), {:+.2}{} dB/(cm·MHz), {reading} (the rule: {:.0} standard errors, `usray_signal::spectral_shift`).\n",
+        shift.echoes.len(),
+        shift.offset_hz / 1e6,
+        shift.slope_hz_per_m / 1e6 / 100.0,
+        shift.spectral_variance_hz2 / 1e12,
+        shift.attenuation_db_cm_mhz,
+        plus_minus(shift.attenuation_std),
+        d.rule.min_spectral_z
+    )
 }
 
 /// A fraction as a signed whole percentage, `+3%`, `−12%`, and `0%` for one

@@ -152,6 +152,13 @@ pub struct EffectResult {
     /// A borderline refit's second look on fresh held-out seeds
     /// ([`super::VerdictRule::borderline`]); absent for every other refit.
     pub confirmation: Option<Confirmation>,
+    /// For a centre-frequency refit that would otherwise be named: the
+    /// attenuation the measured echoes' spectral shift along their path
+    /// shows beyond the calibrated model's, in its standard errors
+    /// ([`usray_signal::SpectralShift::attenuation_z`];
+    /// [`super::VerdictRule::min_spectral_z`]). Absent for every other
+    /// candidate and without measured channel data.
+    pub spectral_z: Option<f64>,
 }
 
 /// A borderline refit measured again on fresh held-out seeds: one that passes
@@ -216,7 +223,7 @@ impl EffectResult {
     ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01), excess_spatial_std: None,
     ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
     ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None,
-    ///     failed: None, confirmation: None,
+    ///     failed: None, confirmation: None, spectral_z: None,
     /// };
     /// e.params.insert(e.path.clone(), 9.999);
     /// assert!(e.at_range_bound());
@@ -279,7 +286,7 @@ impl EffectResult {
     ///     excess: Some(0.05), excess_std: None, excess_spatial_std: None, gap_explained: None,
     ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
     ///     detection_limit: None, tolerance: Some(3.9), absence_cost: None,
-    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None,
+    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None,
     /// };
     /// e.params.insert("medium.sound_speed_m_s".into(), 1477.7);
     /// assert!(e.within_tolerance());
@@ -334,7 +341,7 @@ impl EffectResult {
     ///     gap_explained: None, held_out_losses: vec![],
     ///     params: BTreeMap::from([(path, 0.23e-3)]), params_std: BTreeMap::new(),
     ///     detection_limit: Some(0.055e-3), tolerance: None, absence_cost: None,
-    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None,
+    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None,
     /// };
     /// assert!(e.within_detection_limit() && e.indistinct_from_null());
     /// (e.absence_cost, e.absence_cost_std) = (Some(0.002), Some(0.003));
@@ -366,7 +373,7 @@ impl EffectResult {
     ///     held_out_losses: vec![9e-3],
     ///     params: BTreeMap::from([(path.clone(), 1.5)]),
     ///     params_std: BTreeMap::from([(path, Some(0.75))]),
-    ///     detection_limit: Some(2.25), tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None,
+    ///     detection_limit: Some(2.25), tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None,
     /// };
     /// // Found +1.5 dB/cm at a spread of 0.75: two spreads from no gain.
     /// assert_eq!(e.null_z(), Some(2.0));
@@ -397,6 +404,9 @@ pub struct Timings {
     /// Step 4's second look at borderline refits on fresh seeds
     /// ([`Confirmation`]).
     pub confirmation_s: f64,
+    /// The spectral check of a centre-frequency refit
+    /// ([`Diagnosis::spectral_shift`]): one render of the model's channels.
+    pub spectral_s: f64,
     /// The whole diagnosis.
     pub total_s: f64,
 }
@@ -464,6 +474,13 @@ pub struct Diagnosis {
     pub max_bounces: u32,
     /// Where each step's time went.
     pub timings: Timings,
+    /// How the measured echoes' spectra shift against the calibrated model's
+    /// along their path ([`usray_signal::spectral_shift`]): measured where a
+    /// centre-frequency refit would otherwise be named and the measured data
+    /// are channels ([`super::VerdictRule::min_spectral_z`]). Absent
+    /// otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectral_shift: Option<usray_signal::SpectralShift>,
     /// Why no further compound round followed this one where one was asked
     /// ([`super::diagnose_compound`]): the budget left could not pay for it,
     /// or it failed. Absent when the rounds ran out or nothing was named.

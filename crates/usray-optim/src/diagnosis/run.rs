@@ -12,6 +12,7 @@ use super::refits::{null_refit, quarter_from_null, refit_leading, Control};
 use super::residual::{analyse_residual, ResidualOptions};
 use super::results::{Calibrated, Diagnosis, EffectResult, Timings};
 use super::screening::{screen, Screening};
+use super::spectral_check::check_centre_frequency;
 use super::verdict::{name_effect, unnamed_verdict, Verdict};
 use crate::spread::parameter_spread;
 use crate::OptimError;
@@ -169,6 +170,20 @@ pub fn diagnose(
     )?;
     timings.confirmation_s = t.elapsed().as_secs_f64();
 
+    // A centre frequency that would be named, checked against how the
+    // measured echoes' spectra shift along their path.
+    let t = Instant::now();
+    let spectral_shift = check_centre_frequency(
+        &refits,
+        &mut effects,
+        &stage,
+        &baseline_scene,
+        opts,
+        noise_check.passed,
+        &mut progress,
+    );
+    timings.spectral_s = t.elapsed().as_secs_f64();
+
     // Step 5: verdict.
     let refitted: Vec<EffectResult> = refits
         .iter()
@@ -244,6 +259,7 @@ pub fn diagnose(
         held_out_frames: opts.held_out_measured.is_some(),
         max_bounces,
         timings,
+        spectral_shift,
         next_round_stopped: None,
         residual,
         calibrated_image: stage.eval.image.data,

@@ -285,6 +285,7 @@ pub(crate) fn screen(
             additivity: None,
             failed,
             confirmation: None,
+            spectral_z: None,
         });
     }
     let mut order: Vec<usize> = (0..effects.len()).collect();

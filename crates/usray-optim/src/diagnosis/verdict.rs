@@ -59,12 +59,27 @@ pub struct VerdictRule {
     /// freedom and reaches 2 with probability 5%, so a second look is
     /// rarely spent on nothing).
     pub borderline_z: f64,
+    /// A centre-frequency refit is not named where the measured echoes'
+    /// spectra shift along their path, against the calibrated model's, as
+    /// an attenuation of at least this many standard errors in the
+    /// direction of the refit ([`EffectResult::spectral_z`]; default 3): a
+    /// lower centre frequency shifts every echo's spectrum alike, an
+    /// attenuation the more the longer the path (Kuc 1984;
+    /// [`usray_signal::spectral_shift`]), so a lowered centre refitted where
+    /// the shift grows with the path stands in for an attenuation (and a
+    /// raised one, where it shrinks, for one too many). The standard error
+    /// comes from the scatter of a few echoes about the line (six on a
+    /// ring seen by three plane waves), not from replicates: 3 of them is a
+    /// rule of thumb, not a calibrated level.
+    pub min_spectral_z: f64,
 }
 
 impl Default for VerdictRule {
     /// Excess ≥ 3 standard errors over the seeds and ≥ 3 over the image's
     /// blocks; a large excess is 0.2; a later round's effect has additivity
-    /// ≥ 0.1; a refit is borderline from 2 seed standard errors.
+    /// ≥ 0.1; a refit is borderline from 2 seed standard errors; a
+    /// centre frequency is contradicted by a spectral shift of 3 standard
+    /// errors.
     fn default() -> Self {
         Self {
             min_excess_z: 3.0,
@@ -72,6 +87,7 @@ impl Default for VerdictRule {
             large_excess: 0.2,
             min_additivity: 0.1,
             borderline_z: 2.0,
+            min_spectral_z: 3.0,
         }
     }
 }
@@ -113,6 +129,43 @@ impl VerdictRule {
         })
     }
 
+    /// Whether the measured spectra contradict `e`, a centre-frequency refit
+    /// ([`VerdictRule::min_spectral_z`]): lowered where the spectral shift
+    /// shows an attenuation of at least that many standard errors, or raised
+    /// where it shows as much of a negative one. `false` where the shift was
+    /// not measured.
+    ///
+    /// ```
+    /// # use std::collections::BTreeMap;
+    /// use usray_optim::{EffectResult, VerdictRule};
+    /// let path = "probe.center_frequency_hz".to_string();
+    /// let mut e = EffectResult {
+    ///     effect: "center_frequency".into(), path: path.clone(), score: 0.08,
+    ///     onset: 2.5e6, range: [2.125e6, 2.875e6], null: Some(2.5e6), gradient: 0.0,
+    ///     loss_onset: 1.0, loss_after: Some(0.9), shrink: Some(0.09), shrink_std: None,
+    ///     excess: Some(0.09), excess_std: Some(0.008), excess_spatial_std: Some(0.019),
+    ///     gap_explained: None, held_out_losses: vec![],
+    ///     params: BTreeMap::from([(path.clone(), 2.33e6)]), params_std: BTreeMap::new(),
+    ///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None,
+    ///     additivity: None, failed: None, confirmation: None, spectral_z: Some(5.4),
+    /// };
+    /// let rule = VerdictRule::default();
+    /// // Refitted lower where the data's echoes lose frequency along the path.
+    /// assert!(rule.spectrum_contradicts(&e));
+    /// e.spectral_z = Some(0.4); // a shift the same for every echo
+    /// assert!(!rule.spectrum_contradicts(&e));
+    /// e.params.insert(path, 2.7e6); // refitted higher, data losing frequency
+    /// e.spectral_z = Some(5.4);
+    /// assert!(!rule.spectrum_contradicts(&e));
+    /// ```
+    #[must_use]
+    pub fn spectrum_contradicts(&self, e: &EffectResult) -> bool {
+        let (Some(z), Some(null), Some(v)) = (e.spectral_z, e.null, e.params.get(&e.path)) else {
+            return false;
+        };
+        (*v < null && z >= self.min_spectral_z) || (*v > null && z <= -self.min_spectral_z)
+    }
+
     /// Whether `e`'s first look is borderline: spread over the image, but
     /// its positive excess between [`VerdictRule::borderline_z`] and
     /// [`VerdictRule::min_excess_z`] of its standard error over the seeds,
@@ -129,7 +182,7 @@ impl VerdictRule {
     ///     gap_explained: None, held_out_losses: vec![], params: BTreeMap::new(),
     ///     params_std: BTreeMap::new(), detection_limit: None, tolerance: None,
     ///     absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
-    ///     confirmation: None,
+    ///     confirmation: None, spectral_z: None,
     /// };
     /// let rule = VerdictRule::default();
     /// // 2.7 standard errors over six seeds, 3.05 over the image: borderline.
@@ -188,7 +241,9 @@ pub struct Verdict {
 /// something else (on the k-Wave rings, a wall's sound speed at +15% stood in
 /// for attenuation), and says so in the report instead. Nor may it lie within
 /// its [`EffectResult::tolerance`] of the modelled value: a departure too
-/// small to matter to the image. How much
+/// small to matter to the image. Nor, for a centre frequency, may the
+/// measured echoes' spectra contradict it ([`VerdictRule::spectrum_contradicts`]):
+/// a shift that grows with the path is an attenuation's. How much
 /// of the gap it explains is reported beside it, not a condition: against data
 /// the model cannot reproduce exactly, a model-form residual stays whatever
 /// effect is added. Nor may it be indistinct from its null
@@ -212,7 +267,7 @@ pub struct Verdict {
 ///     shrink: Some(shrink), shrink_std: Some(0.01), excess: Some(excess),
 ///     excess_std: Some(0.01), excess_spatial_std: Some(spatial), gap_explained: Some(0.5),
 ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
-///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None,
+///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None,
 /// };
 /// let rule = VerdictRule::default();
 /// // Shrinks 0.80 and 0.78 tie; the first has the higher score.
@@ -244,6 +299,14 @@ pub struct Verdict {
 /// assert!(name_effect(&[indistinct.clone()], true, &rule).is_none());
 /// indistinct.absence_cost = Some(0.3); // switching it off costs 15 standard errors
 /// assert_eq!(name_effect(&[indistinct], true, &rule).unwrap().0, 0);
+/// // Nor a centre frequency refitted lower where the measured echoes' spectra
+/// // shift the more the longer their path, as an attenuation's do.
+/// let mut lowered = refit(0.3, 0.8, 0.7, 0.1);
+/// (lowered.null, lowered.spectral_z) = (Some(0.5), Some(4.0));
+/// lowered.params.insert("p".into(), 0.45);
+/// assert!(name_effect(&[lowered.clone()], true, &rule).is_none());
+/// lowered.spectral_z = Some(1.0); // a shift alike for every echo
+/// assert_eq!(name_effect(&[lowered], true, &rule).unwrap().0, 0);
 /// // In a later round, a gain the first round did not foreshadow is no second effect.
 /// let mut jointly_only = refit(0.3, 0.3, 0.28, 0.05);
 /// jointly_only.additivity = Some(0.01);
@@ -254,9 +317,7 @@ pub fn name_effect(
     noise_passed: bool,
     rule: &VerdictRule,
 ) -> Option<(usize, Vec<usize>)> {
-    let qualifies = |e: &EffectResult| {
-        rule.significant(e) && passes_all_but_significance(e, noise_passed, rule)
-    };
+    let qualifies = |e: &EffectResult| qualifies(e, noise_passed, rule);
     let shrink = |i: usize| refits[i].shrink.unwrap_or(f64::NEG_INFINITY);
     let qualified: Vec<usize> = (0..refits.len())
         .filter(|&i| qualifies(&refits[i]))
@@ -276,9 +337,15 @@ pub fn name_effect(
     Some((named, tied))
 }
 
+/// Whether `e` passes every test of [`name_effect`].
+pub(crate) fn qualifies(e: &EffectResult, noise_passed: bool, rule: &VerdictRule) -> bool {
+    rule.significant(e) && passes_all_but_significance(e, noise_passed, rule)
+}
+
 /// [`name_effect`]'s tests other than [`VerdictRule::significant`]: large
 /// enough where the noise failed its check, additive in a later round, inside
-/// its range, beyond its tolerance and told from its null.
+/// its range, beyond its tolerance, told from its null and, for a centre
+/// frequency, not contradicted by the measured spectra.
 fn passes_all_but_significance(e: &EffectResult, noise_passed: bool, rule: &VerdictRule) -> bool {
     let large_enough = noise_passed || e.excess.is_some_and(|x| x >= rule.large_excess);
     let additive = e.additivity.is_none_or(|a| a >= rule.min_additivity);
@@ -287,6 +354,7 @@ fn passes_all_but_significance(e: &EffectResult, noise_passed: bool, rule: &Verd
         && !e.at_range_bound()
         && !e.within_tolerance()
         && !e.indistinct_from_null()
+        && !rule.spectrum_contradicts(e)
 }
 
 /// Whether `e` would be named but for its first look's standard error over
