@@ -54,7 +54,10 @@ fn kwave_disk_attenuation_is_measured_and_its_grid_offset_is_not_taken_for_one()
     assert!(a > 3.0 * se, "{a} ± {se}");
     // Without attenuation the echoes sit lower than the model's alike (k-Wave's
     // grid: an offset of about −0.1 MHz), with no attenuation told.
-    let (a0, se0) = (without.attenuation_db_cm_mhz, without.attenuation_std.unwrap());
+    let (a0, se0) = (
+        without.attenuation_db_cm_mhz,
+        without.attenuation_std.unwrap(),
+    );
     assert!(a0.abs() < 3.0 * se0, "{a0} ± {se0}");
     assert!(
         without.offset_hz < -0.05e6,

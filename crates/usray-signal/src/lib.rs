@@ -108,7 +108,7 @@ pub use channels::{ChannelData, ChannelMeta, ProbeMeta, TransmitMeta};
 pub use error::{Result, SignalError};
 pub use import::{import_mat, import_mat_with, ImportOptions};
 pub use io::{read_channels, write_atomic, write_channels};
-pub use spectral_shift::{spectral_shift, EchoSpectrum, SpectralShift, SpectralShiftOptions};
 /// Complex sample type used for IQ and analytic data (re-exported from `rustfft`).
 pub use rustfft::num_complex::Complex64;
+pub use spectral_shift::{spectral_shift, EchoSpectrum, SpectralShift, SpectralShiftOptions};
 pub use uff::{export_uff, import_uff, import_uff_with};

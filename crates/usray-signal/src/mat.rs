@@ -9,7 +9,7 @@
 //! `Nelements` cannot overflow afterwards). Opaque class objects (MATLAB `classdef`
 //! instances) and sparse arrays are recognised and skipped.
 //!
-//! MAT v7.3 files (HDF5) are read by [`crate::mat73`] into the same [`MatFile`];
+//! MAT v7.3 files (HDF5) are read by the private `mat73` module into the same [`MatFile`];
 //! [`read_mat`] chooses by the header.
 //!
 //! Why a hand-written v5 reader: the Rust crates for `.mat` files read numeric
@@ -423,7 +423,7 @@ fn parse_matrix(body: &[u8], depth: usize, budget: &mut Budget) -> R<(String, Ma
 }
 
 /// Read every variable of a MATLAB `.mat` file: v5 (and v6, v7) by the reader
-/// here, v7.3 (HDF5) by [`crate::mat73`], chosen by the header.
+/// here, v7.3 (HDF5) by the private `mat73` module, chosen by the header.
 pub fn read_mat(path: impl AsRef<Path>) -> Result<MatFile> {
     let path = path.as_ref();
     let size = std::fs::metadata(path)

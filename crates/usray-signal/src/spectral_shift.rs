@@ -263,7 +263,9 @@ pub fn spectral_shift(
         .map(|(_, v)| v)
         .filter(|v| *v > 0.0)
         .ok_or_else(|| {
-            SignalError::Invalid("spectral shift: the measured data have no power in the band".into())
+            SignalError::Invalid(
+                "spectral shift: the measured data have no power in the band".into(),
+            )
         })?;
     let to_attenuation = -DB_CM_MHZ_PER_NP_M_HZ / (2.0 * spectral_variance_hz2);
     Ok(SpectralShift {
@@ -421,7 +423,11 @@ fn weighted_line(x: &[f64], y: &[f64], w: &[f64]) -> Option<Line> {
     let sw: f64 = w.iter().sum();
     let xm = x.iter().zip(w).map(|(x, w)| w * x).sum::<f64>() / sw;
     let ym = y.iter().zip(w).map(|(y, w)| w * y).sum::<f64>() / sw;
-    let sxx = x.iter().zip(w).map(|(x, w)| w * (x - xm).powi(2)).sum::<f64>();
+    let sxx = x
+        .iter()
+        .zip(w)
+        .map(|(x, w)| w * (x - xm).powi(2))
+        .sum::<f64>();
     if sxx.is_nan() || sxx <= 0.0 {
         return None;
     }
@@ -473,11 +479,16 @@ mod tests {
                 for i in 1..400 {
                     let f = i as f64 * 25e3;
                     let a = (-(f - f_c).powi(2) / 2e12 - alpha0 * f * d).exp();
-                    *v += a * (2.0 * std::f64::consts::PI * f * (k as f64 / 40e6 - d / 1500.0)).cos();
+                    *v +=
+                        a * (2.0 * std::f64::consts::PI * f * (k as f64 / 40e6 - d / 1500.0)).cos();
                 }
             }
         }
-        ChannelData { meta, n_samples: n, samples: x }
+        ChannelData {
+            meta,
+            n_samples: n,
+            samples: x,
+        }
     }
 
     #[test]
@@ -498,13 +509,21 @@ mod tests {
         other.meta.transmits.push(other.meta.transmits[0].clone());
         other.samples.extend(model.samples.clone());
         let e = spectral_shift(&other, &model, 1500.0, 5e6, &opts).unwrap_err();
-        assert!(e.to_string().contains("2 transmits × 1 elements, the model 1 × 1"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("2 transmits × 1 elements, the model 1 × 1"),
+            "{e}"
+        );
     }
 
     #[test]
     fn a_weighted_line_through_exact_points_has_their_slope_and_no_error() {
-        let l = weighted_line(&[0.0, 1.0, 2.0, 3.0], &[1.0, 3.0, 5.0, 7.0], &[1.0, 2.0, 1.0, 3.0])
-            .unwrap();
+        let l = weighted_line(
+            &[0.0, 1.0, 2.0, 3.0],
+            &[1.0, 3.0, 5.0, 7.0],
+            &[1.0, 2.0, 1.0, 3.0],
+        )
+        .unwrap();
         assert!((l.slope - 2.0).abs() < 1e-12);
         assert!(l.slope_std.unwrap() < 1e-12);
         assert!(weighted_line(&[1.0, 1.0], &[0.0, 1.0], &[1.0, 1.0]).is_none());

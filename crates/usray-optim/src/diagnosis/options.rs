@@ -33,7 +33,10 @@ pub struct MeasuredChannels(pub std::sync::Arc<ChannelData>);
 impl std::fmt::Debug for MeasuredChannels {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let (t, e, n) = self.0.shape();
-        write!(f, "MeasuredChannels({t} transmits × {e} elements × {n} samples)")
+        write!(
+            f,
+            "MeasuredChannels({t} transmits × {e} elements × {n} samples)"
+        )
     }
 }
 

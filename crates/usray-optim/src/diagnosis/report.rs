@@ -283,7 +283,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         writeln!(r, "**At the bound of its range:** the refit left `{}` at {:.4e}, the edge of the range [{:.4e}, {:.4e}] it may take; the data may want a stronger effect than the range allows, so this value is a limit, not an estimate.\n", named.path, named.params[&named.path], named.range[0], named.range[1])?;
     }
     if let Some(shift) = &d.spectral_shift {
-        spectral_paragraph(&mut r, "", d, shift)?;
+        spectral_paragraph(&mut r, "The echoes' spectra", d, shift)?;
     }
     if !d.verdict.alternatives.is_empty() {
         let alt: Vec<String> = d
@@ -512,7 +512,8 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
         for (i, round) in rounds.iter().enumerate().skip(1) {
             if let Some(shift) = &round.spectral_shift {
                 writeln!(r)?;
-                spectral_paragraph(&mut r, &format!("Round {}: ", i + 1), round, shift)?;
+                let heading = format!("Round {}, the echoes' spectra", i + 1);
+                spectral_paragraph(&mut r, &heading, round, shift)?;
             }
             for e in &round.effects {
                 let Some(a) = e.additivity.filter(|a| *a < round.rule.min_additivity) else {
@@ -561,7 +562,7 @@ fn spectral_paragraph(
     };
     writeln!(
         r,
-        "**{heading}The echoes' spectra:** over {} echoes of the measured channel data, their mean frequency lies {:+.3} MHz from the calibrated model's and changes by {:+.3} MHz per cm of two-way path against it: as an attenuation beyond the model's (Kuc 1984: `α₀ = −slope / 2σ²`, σ² = {:.3} MHz² the measured spectrum's variance), {:+.2}{} dB/(cm·MHz), {reading} (the rule: {:.0} standard errors, `usray_signal::spectral_shift`).\n",
+        "**{heading}:** over {} echoes of the measured channel data, their mean frequency lies {:+.3} MHz from the null refit's model's and changes by {:+.3} MHz per cm of two-way path against it: as an attenuation beyond the model's (Kuc 1984: `α₀ = −slope / 2σ²`, σ² = {:.3} MHz² the measured spectrum's variance), {:+.2}{} dB/(cm·MHz), {reading} (the rule: {:.0} standard errors, `usray_signal::spectral_shift`).\n",
         shift.echoes.len(),
         shift.offset_hz / 1e6,
         shift.slope_hz_per_m / 1e6 / 100.0,

@@ -475,7 +475,7 @@ pub struct Diagnosis {
     /// Where each step's time went.
     pub timings: Timings,
     /// How the measured echoes' spectra shift against the calibrated model's
-    /// along their path ([`usray_signal::spectral_shift`]): measured where a
+    /// along their path ([`usray_signal::spectral_shift()`]): measured where a
     /// centre-frequency refit would otherwise be named and the measured data
     /// are channels ([`super::VerdictRule::min_spectral_z`]). Absent
     /// otherwise.

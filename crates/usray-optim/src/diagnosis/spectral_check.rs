@@ -41,7 +41,9 @@ pub(crate) fn check_centre_frequency(
     let model = match usray_transport::render(baseline_scene, &stage.render_s) {
         Ok((channels, _)) => channels,
         Err(e) => {
-            progress(&format!("spectral check not made: the model's render failed: {e}"));
+            progress(&format!(
+                "spectral check not made: the model's render failed: {e}"
+            ));
             return None;
         }
     };

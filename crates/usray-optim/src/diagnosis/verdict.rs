@@ -65,7 +65,7 @@ pub struct VerdictRule {
     /// direction of the refit ([`EffectResult::spectral_z`]; default 3): a
     /// lower centre frequency shifts every echo's spectrum alike, an
     /// attenuation the more the longer the path (Kuc 1984;
-    /// [`usray_signal::spectral_shift`]), so a lowered centre refitted where
+    /// [`usray_signal::spectral_shift()`]), so a lowered centre refitted where
     /// the shift grows with the path stands in for an attenuation (and a
     /// raised one, where it shrinks, for one too many). The standard error
     /// comes from the scatter of a few echoes about the line (six on a
