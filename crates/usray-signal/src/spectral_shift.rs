@@ -124,41 +124,27 @@ const DB_CM_MHZ_PER_NP_M_HZ: f64 = 8.685_889_638_065_035 * 0.01 * 1e6;
 /// frequency, fewer than two echoes, or echoes all at one path.
 ///
 /// ```
-/// use usray_signal::{spectral_shift, ChannelData, ChannelMeta, SpectralShiftOptions};
-/// // Three echoes at 10, 15 and 20 mm; the measured ones attenuated by
-/// // 0.5 dB/(cm·MHz) along their two-way path, applied in the frequency domain.
+/// use usray_signal::{pulse::pulse, spectral_shift, ChannelData, ChannelMeta, SpectralShiftOptions};
+/// // Echoes at 10, 15 and 20 mm; the measured probe is centred 4% low
+/// // (4.8 MHz for 5): every echo's spectrum moves down alike, which is an
+/// // offset, not an attenuation.
 /// let meta: ChannelMeta = serde_json::from_value(serde_json::json!({
 ///     "format": "usray-channels/1", "sampling_frequency_hz": 40e6, "t0_s": 0.0,
 ///     "sound_speed_m_s": 1500.0, "center_frequency_hz": 5e6,
 ///     "probe": {"kind": "linear", "n_elements": 1, "pitch_m": 0.3e-3, "element_width_m": 0.27e-3},
 ///     "transmits": [{"kind": "plane_wave", "angle_rad": 0.0}]
 /// })).unwrap();
-/// let n = 2048;
-/// let alpha0 = 0.5 / 8.685889638 * 100.0 / 1e6; // Np/(m·Hz)
-/// let record = |attenuated: bool| -> Vec<f64> {
-///     let mut x = vec![0.0; n];
-///     for depth in [0.010, 0.015, 0.020] {
-///         let d = 2.0 * depth;
-///         let t0 = d / 1500.0;
-///         // Gaussian burst: spectrum exp(−(f−f_c)²/(2·(1 MHz)²)), phase of delay t0.
-///         for k in 0..n {
-///             let mut v = 0.0;
-///             for i in 1..400 {
-///                 let f = i as f64 * 25e3;
-///                 let mut a = (-(f - 5e6).powi(2) / (2.0 * 1e6f64.powi(2))).exp();
-///                 if attenuated { a *= (-alpha0 * f * d).exp(); }
-///                 v += a * (2.0 * std::f64::consts::PI * f * (k as f64 / 40e6 - t0)).cos();
-///             }
-///             x[k] += v;
-///         }
-///     }
-///     x
+/// let record = |f_c: f64| -> Vec<f64> {
+///     (0..2048)
+///         .map(|k| [0.010, 0.015, 0.020].iter().map(|z| pulse(k as f64 / 40e6 - 2.0 * z / 1500.0, f_c, 3.0)).sum())
+///         .collect()
 /// };
-/// let model = ChannelData { meta: meta.clone(), n_samples: n, samples: record(false) };
-/// let measured = ChannelData { meta, n_samples: n, samples: record(true) };
+/// let model = ChannelData { meta: meta.clone(), n_samples: 2048, samples: record(5e6) };
+/// let measured = ChannelData { meta, n_samples: 2048, samples: record(4.8e6) };
 /// let s = spectral_shift(&measured, &model, 1500.0, 5e6, &SpectralShiftOptions::default()).unwrap();
 /// assert_eq!(s.echoes.len(), 3);
-/// assert!((s.attenuation_db_cm_mhz - 0.5).abs() < 0.05, "{}", s.attenuation_db_cm_mhz);
+/// assert!(s.offset_hz < -0.1e6, "{}", s.offset_hz);
+/// assert!(s.attenuation_db_cm_mhz.abs() < 0.02, "{}", s.attenuation_db_cm_mhz);
 /// ```
 pub fn spectral_shift(
     measured: &ChannelData,
@@ -186,15 +172,20 @@ pub fn spectral_shift(
         opts.band[0] * center_frequency_hz,
         opts.band[1] * center_frequency_hz,
     ];
+    let fs_model = model.meta.sampling_frequency_hz;
+    let fs_measured = measured.meta.sampling_frequency_hz;
+    let period_samples = |p: f64| (p * fs_model / center_frequency_hz).round() as usize;
+    let (smoothing, pad, min_len) = (
+        period_samples(opts.smoothing_periods),
+        period_samples(opts.padding_periods),
+        period_samples(opts.min_periods).max(4),
+    );
     let mut planner = FftPlanner::new();
     let mut echoes = Vec::new();
     for tx in 0..model.n_transmits() {
-        let fs_model = model.meta.sampling_frequency_hz;
-        let fs_measured = measured.meta.sampling_frequency_hz;
         let t0_model = model.meta.t0_for(tx);
         let t0_measured = measured.meta.t0_for(tx);
-        let period_samples = |p: f64| (p * fs_model / center_frequency_hz).round() as usize;
-        let energy_model = smoothed_energy(model, tx, period_samples(opts.smoothing_periods));
+        let energy_model = smoothed_energy(model, tx, smoothing);
         let energy_measured = energy(measured, tx);
         let total_model: f64 = energy_model.iter().sum();
         let total_measured: f64 = energy_measured.iter().sum();
@@ -203,10 +194,9 @@ pub fn spectral_shift(
         }
         let peak = energy_model.iter().copied().fold(0.0, f64::max);
         let threshold = peak * 10f64.powf(-opts.dynamic_range_db / 10.0);
-        let pad = period_samples(opts.padding_periods);
         for (a, b) in runs_above(&energy_model, threshold) {
             let (a, b) = (a.saturating_sub(pad), (b + pad).min(model.n_samples));
-            if b - a < period_samples(opts.min_periods).max(4) {
+            if b - a < min_len {
                 continue;
             }
             // The same times in the measured record.

@@ -154,7 +154,7 @@ pub struct EffectResult {
     pub confirmation: Option<Confirmation>,
     /// For a centre-frequency refit that would otherwise be named: the
     /// attenuation the measured echoes' spectral shift along their path
-    /// shows beyond the calibrated model's, in its standard errors
+    /// shows beyond the null refit's model's, in its standard errors
     /// ([`usray_signal::SpectralShift::attenuation_z`];
     /// [`super::VerdictRule::min_spectral_z`]). Absent for every other
     /// candidate and without measured channel data.
@@ -474,8 +474,8 @@ pub struct Diagnosis {
     pub max_bounces: u32,
     /// Where each step's time went.
     pub timings: Timings,
-    /// How the measured echoes' spectra shift against the calibrated model's
-    /// along their path ([`usray_signal::spectral_shift()`]): measured where a
+    /// How the measured echoes' spectra shift against the null refit's
+    /// model's along their path ([`usray_signal::spectral_shift()`]): measured where a
     /// centre-frequency refit would otherwise be named and the measured data
     /// are channels ([`super::VerdictRule::min_spectral_z`]). Absent
     /// otherwise.

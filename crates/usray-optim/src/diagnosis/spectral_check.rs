@@ -7,7 +7,7 @@ use super::calibration::Stage;
 use super::options::DiagnoseOptions;
 use super::refits::Refitted;
 use super::results::EffectResult;
-use super::verdict::VerdictRule;
+use super::verdict::qualifies;
 use usray_signal::{spectral_shift, SpectralShift, SpectralShiftOptions};
 use usray_transport::Scene;
 
@@ -35,7 +35,7 @@ pub(crate) fn check_centre_frequency(
 ) -> Option<SpectralShift> {
     let measured = opts.measured_channels.as_ref()?;
     let k = refits.iter().map(|r| r.candidate).find(|&k| {
-        effects[k].path == CENTER_FREQUENCY && would_be_named(&effects[k], noise_passed, &opts.rule)
+        effects[k].path == CENTER_FREQUENCY && qualifies(&effects[k], noise_passed, &opts.rule)
     })?;
     progress("checking the centre frequency against the echoes' spectra along their path");
     let model = match usray_transport::render(baseline_scene, &stage.render_s) {
@@ -63,9 +63,4 @@ pub(crate) fn check_centre_frequency(
             None
         }
     }
-}
-
-/// Whether `e` passes every test of [`super::name_effect`] as it stands.
-fn would_be_named(e: &EffectResult, noise_passed: bool, rule: &VerdictRule) -> bool {
-    super::verdict::qualifies(e, noise_passed, rule)
 }

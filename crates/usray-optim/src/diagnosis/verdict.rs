@@ -60,7 +60,7 @@ pub struct VerdictRule {
     /// rarely spent on nothing).
     pub borderline_z: f64,
     /// A centre-frequency refit is not named where the measured echoes'
-    /// spectra shift along their path, against the calibrated model's, as
+    /// spectra shift along their path, against the null refit's model's, as
     /// an attenuation of at least this many standard errors in the
     /// direction of the refit ([`EffectResult::spectral_z`]; default 3): a
     /// lower centre frequency shifts every echo's spectrum alike, an
