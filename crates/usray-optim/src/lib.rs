@@ -73,7 +73,7 @@ pub use objective::{
 pub use params::{default_range, ParamMap, ParamSpec, ParamSpecError};
 pub use reference::{
     compare_absolute_levels, follow_declared_dimensions, load_reference, load_reference_frames,
-    AbsoluteLevels, SOURCE_PRESSURE_UNIT,
+    reference_from_channels, AbsoluteLevels, SOURCE_PRESSURE_UNIT,
 };
 pub use spread::{linearised_spread, parameter_spread};
 pub use usray_transport::scene::ParamGroup;

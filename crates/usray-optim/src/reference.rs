@@ -149,7 +149,7 @@ pub fn load_reference(path: &Path, scene: &Scene) -> Result<Vec<f64>, OptimError
         .unwrap_or_default();
     let shown = path.display();
     match ext.as_str() {
-        "json" => beamformed(&read_channels(path)?, scene),
+        "json" => reference_from_channels(&read_channels(path)?, scene),
         "npy" => {
             let a = read_npy(path)?;
             if a.shape != [nz, nx] {
@@ -264,13 +264,21 @@ pub fn load_reference_frames(
                 .flat_map(|&t| ch.samples[t * record..(t + 1) * record].iter().copied())
                 .collect(),
         };
-        beamformed(&part, scene)
+        reference_from_channels(&part, scene)
     };
     Ok((half(0)?, half(1)?))
 }
 
-/// `ch` beamformed into a B-mode with `scene`'s `[imaging]` settings.
-fn beamformed(ch: &ChannelData, scene: &Scene) -> Result<Vec<f64>, OptimError> {
+/// Channel data already in memory as a reference B-mode `[nz, nx]` on
+/// `scene`'s grid: `ch` beamformed with `scene`'s `[imaging]` settings, as
+/// [`load_reference`] does with a channel-data file. For a caller that keeps
+/// the channels too (`usray diagnose` checks their spectra) and so reads the
+/// file once.
+///
+/// # Errors
+/// Channel data the scene's imaging settings cannot beamform (no samples,
+/// mismatched metadata).
+pub fn reference_from_channels(ch: &ChannelData, scene: &Scene) -> Result<Vec<f64>, OptimError> {
     let op = BMode::new(&scene.imaging_settings(), &ch.meta, ch.n_samples)?;
     let mut ws = op.workspace();
     Ok(op.forward(ch, &mut ws)?.data)

@@ -62,16 +62,24 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
     );
     // Validates every named parameter against the scene before any work.
     super::calib::parse_params(&scene, &args.params)?;
-    let (measured_img, held_out_measured) = if args.held_out_frames {
+    let held_out_measured = args
+        .held_out_measured
+        .as_deref()
+        .map(|p| usray_optim::load_reference(p, &scene))
+        .transpose()?;
+    let (measured_img, held_out_measured, measured_channels) = if args.held_out_frames {
         let (fit, held) = usray_optim::load_reference_frames(measured, &scene)?;
-        (fit, Some(held))
+        (fit, Some(held), None)
+    } else if is_channel_file(measured) {
+        // Read once: the image is beamformed from the channels, which the
+        // diagnosis keeps to check a centre-frequency refit against their spectra.
+        let channels = usray_signal::read_channels(measured)?;
+        let img = usray_optim::reference_from_channels(&channels, &scene)?;
+        let channels = usray_optim::MeasuredChannels(std::sync::Arc::new(channels));
+        (img, held_out_measured, Some(channels))
     } else {
-        let held = args
-            .held_out_measured
-            .as_deref()
-            .map(|p| usray_optim::load_reference(p, &scene))
-            .transpose()?;
-        (usray_optim::load_reference(measured, &scene)?, held)
+        let img = usray_optim::load_reference(measured, &scene)?;
+        (img, held_out_measured, None)
     };
     let opts = DiagnoseOptions {
         free_params: args
@@ -89,7 +97,7 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
         budget_s: args.budget_s,
         smoothing_wavelengths: args.smoothing_wavelengths,
         noise_floor: args.noise_floor,
-        measured_channels: measured_channels(measured, args.held_out_frames)?,
+        measured_channels,
         ..Default::default()
     };
     // The calibration and the refits (the null and each confirmed candidate),
@@ -173,21 +181,10 @@ pub fn run(scene_path: &Path, measured: &Path, args: &DiagnoseArgs, common: &Com
     Ok(())
 }
 
-/// The measured channel data, where `measured` is a channel-data file and its
-/// transmits are the model's (not split into frames for `--held-out-frames`):
-/// the diagnosis checks a centre-frequency refit against their spectra.
-fn measured_channels(
-    measured: &Path,
-    held_out_frames: bool,
-) -> Result<Option<usray_optim::MeasuredChannels>> {
-    let is_channels = measured
+/// Whether `measured` is a channel-data file (`.json`, CONTRACT §2), whose
+/// channels the diagnosis keeps beside the image it beamforms from them.
+fn is_channel_file(measured: &Path) -> bool {
+    measured
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    if !is_channels || held_out_frames {
-        return Ok(None);
-    }
-    let channels = usray_signal::read_channels(measured)?;
-    Ok(Some(usray_optim::MeasuredChannels(std::sync::Arc::new(
-        channels,
-    ))))
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
 }
