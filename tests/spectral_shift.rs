@@ -8,10 +8,13 @@
 //! longer their path (`usray_optim::VerdictRule::min_spectral_z`). k-Wave's
 //! grid centres the disk's echoes about 0.1 MHz below the model's whatever
 //! the attenuation (docs/diagnosis.md, "Known limits"): that is the offset,
-//! and the test asserts that it does not pass for an attenuation.
+//! and the test asserts that it does not pass for an attenuation. On the ring
+//! g1, where the image cannot tell the attenuation (the calibrated wall stands
+//! in for it), the diagnosis names it from this estimate against the scene as
+//! given (`VerdictRule::spectra_show_attenuation`).
 
 use std::path::Path;
-use usray::optim::follow_declared_dimensions;
+use usray::optim::{follow_declared_dimensions, VerdictRule};
 use usray::signal::{read_channels, spectral_shift, SpectralShift, SpectralShiftOptions};
 use usray::transport::{render, RenderOptions, Scene};
 
@@ -19,8 +22,14 @@ use usray::transport::{render, RenderOptions, Scene};
 /// (its true 1.76 MRayl, no attenuation), traced in 2-D as the data declare,
 /// at the diagnosis's 20 rays.
 fn shift_of(case: &str) -> SpectralShift {
+    shift_against("bench/kwave/g4.toml", case)
+}
+
+/// The spectral shift of k-Wave's `case` against the scene `scene_path` as
+/// given, traced in 2-D as the data declare, at the diagnosis's 20 rays.
+fn shift_against(scene_path: &str, case: &str) -> SpectralShift {
     let data = format!("bench/kwave/data/{case}.json");
-    let mut scene = Scene::load("bench/kwave/g4.toml").unwrap();
+    let mut scene = Scene::load(scene_path).unwrap();
     follow_declared_dimensions(&mut scene, Path::new(&data)).unwrap();
     let (model, _) = render(
         &scene,
@@ -64,4 +73,32 @@ fn kwave_disk_attenuation_is_measured_and_its_grid_offset_is_not_taken_for_one()
         "offset {} Hz",
         without.offset_hz
     );
+}
+
+/// The spectral shift of k-Wave's ring g1 `case` against its scene as given
+/// (`bench/kwave/g1.toml`, the true wall), traced in 2-D at 20 rays.
+fn ring_shift_of(case: &str) -> SpectralShift {
+    shift_against("bench/kwave/g1.toml", case)
+}
+
+#[test]
+fn kwave_ring_attenuation_is_shown_by_the_spectra_and_its_absence_is_not() {
+    // The ring's near and far walls, whose echoes the image alone cannot
+    // tell an attenuation by (docs/diagnosis.md): the spectra can.
+    let rule = VerdictRule::default();
+    let with = ring_shift_of("g1_atten");
+    let (a, se) = (with.attenuation_db_cm_mhz, with.attenuation_std.unwrap());
+    assert!(rule.spectra_show_attenuation(&with), "{a} ± {se}");
+    assert!((a - 0.5).abs() < 0.1, "{a} ± {se}");
+    // Without it, and with a depth gain (a gain that rises with depth changes
+    // no echo's spectrum), nothing is shown.
+    for case in ["g1_none", "g1_gain"] {
+        let s = ring_shift_of(case);
+        assert!(
+            !rule.spectra_show_attenuation(&s),
+            "{case}: {} ± {:?}",
+            s.attenuation_db_cm_mhz,
+            s.attenuation_std
+        );
+    }
 }

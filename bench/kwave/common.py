@@ -38,6 +38,9 @@ F0, NCYC = 2.5e6, 3
 T_BURST = NCYC / F0
 SIGMA_T = T_BURST / 6          # k-Wave tone_burst Gaussian envelope: x in [-3,3] over the burst, sigma = 1
 NCYC_LONG = 5                  # the pulse_length cases' burst (sigma 5/3 as long)
+# The center_frequency cases' bursts (3 cycles; the data still declare F0, the probe's nominal
+# centre): 12% low on g1, 12% high on the disk g4.
+F0_LOW, F0_HIGH = 2.2e6, 2.8e6
 T_LEAD = 2.5e-6                # sim time at which the (x=0) wavefront centre leaves the array = our t=0
 N_LEAD = int(round(T_LEAD / DT))   # 200 (room for the 5-cycle burst's leading 4 sigma + max delay)
 C_TX = 1480.0                  # speed the "scanner" uses for its transmit delays (all cases)
@@ -52,11 +55,11 @@ def element_weights():
         W[i] = np.clip(np.minimum(hi, hi_c) - np.maximum(lo, lo_c), 0, None) / DX
     return W
 
-def pulse(t, ncyc=NCYC):
-    """k-Wave tone_burst(fs, F0, ncyc) written analytically about its envelope centre (t = 0):
-    -sin(2 pi F0 t) * exp(-t^2 / (2 sigma^2)), sigma = ncyc / (6 F0), truncated at |t| = 4 sigma."""
-    sigma = ncyc / F0 / 6
-    s = -np.sin(2 * np.pi * F0 * t) * np.exp(-t ** 2 / (2 * sigma ** 2))
+def pulse(t, ncyc=NCYC, f0=F0):
+    """k-Wave tone_burst(fs, f0, ncyc) written analytically about its envelope centre (t = 0):
+    -sin(2 pi f0 t) * exp(-t^2 / (2 sigma^2)), sigma = ncyc / (6 f0), truncated at |t| = 4 sigma."""
+    sigma = ncyc / f0 / 6
+    s = -np.sin(2 * np.pi * f0 * t) * np.exp(-t ** 2 / (2 * sigma ** 2))
     return np.where(np.abs(t) <= 4 * sigma, s, 0.0)
 
 # ---- target -----------------------------------------------------------------------
@@ -102,7 +105,7 @@ def mix(f, c_bg, rho_bg, c_t=C_T, rho_t=RHO_T):
     return np.sqrt(1 / (rho * kap)), rho
 
 # Each case: geometry, wall thickness (None: no target), water speed, attenuation (dB/cm/MHz, in
-# water and wall), lumen speckle, pulse cycles; `ref` names the background run subtracted from it
+# water and wall), lumen speckle, pulse cycles and centre frequency (`f0`); `ref` names the background run subtracted from it
 # (same water and pulse, no ring); `gain_db_cm` a depth gain applied in finalize.py (a scanner's
 # TGC acts on the received signal, not on the field).
 # The modelled wall, 0.15 mm whatever the grid (two cells at G = 1, four at G = 2). KWAVE_WALL_M
@@ -117,6 +120,8 @@ CASES = {
     "ref1450":  dict(wall=None, c_w=1450.0, alpha=0.0, speckle=False),
     "refatt07": dict(wall=None, c_w=1480.0, alpha=0.7, speckle=False),
     "ref1500":  dict(wall=None, c_w=1500.0, alpha=0.0, speckle=False),
+    "reff22":   dict(wall=None, c_w=1480.0, alpha=0.0, speckle=False, f0=F0_LOW),
+    "reff28":   dict(wall=None, c_w=1480.0, alpha=0.0, speckle=False, f0=F0_HIGH),
 }
 def ring_cases(g, wall, thick, speed, speed_ref, alpha, alpha_ref, gain_db_cm):
     """No effect and six effects on ring `g` modelled with a `wall` (m): a `thick` wall (none
@@ -141,6 +146,9 @@ G3_WALL = 0.3e-3               # g3's modelled wall (bench/kwave/g3.toml)
 CASES.update(ring_cases("g3", G3_WALL, 1.0e-3, 1450.0, "ref1450", 0.7, "refatt07", 2.0))
 # g4, the solid disk (its "wall" is its radius): every effect but a wall's thickness.
 CASES.update(ring_cases("g4", GEOMS["g4"]["r_out"], None, 1500.0, "ref1500", 0.5, "refatt", 2.5))
+# A probe whose centre frequency is not its nominal one, on a ring and on the disk.
+CASES["g1_freq"] = {**CASES["g1_none"], "ref": "reff22", "f0": F0_LOW}
+CASES["g4_freq"] = {**CASES["g4_none"], "ref": "reff28", "f0": F0_HIGH}
 ALPHA_POWER = 1.0              # y = 1 with alpha_mode = 'no_dispersion' (exactly dB/cm/MHz)
 SPECKLE_SEED, SPECKLE_FRAC, SPECKLE_STD, SPECKLE_CLIP = 21, 0.15, 0.02, 0.04
 

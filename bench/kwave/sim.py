@@ -37,7 +37,7 @@ def run(case, angle_deg):
     el_of_col = W[:, cols].argmax(0); w_of_col = W[el_of_col, cols]
     tau = XEL * np.sin(th) / C_TX
     tsim = np.arange(SRC_LEN) * DT
-    sig = w_of_col[:, None] * pulse(tsim[None, :] - T_LEAD - tau[el_of_col][:, None], p.get("ncyc", NCYC))
+    sig = w_of_col[:, None] * pulse(tsim[None, :] - T_LEAD - tau[el_of_col][:, None], p.get("ncyc", NCYC), p.get("f0", F0))
     src.p = sig.astype(np.float32)
     sm = m.copy(); cal_rows = [J0 + int(round(zc / DX)) for zc in CAL_Z]
     for r in cal_rows: sm[r, NX_IN // 2 - 1: NX_IN // 2 + 1] = 1

@@ -156,7 +156,9 @@ pub use noise_budget::{noise_exponent, rays_needed, simulation_noise_share, Nois
 pub use options::{DiagnoseOptions, FirstRound, MeasuredChannels};
 pub use parameter_candidates::parameter_candidates;
 pub use report::Report;
-pub use results::{Calibrated, Confirmation, Diagnosis, EffectResult, NullRefit, Timings};
+pub use results::{
+    Calibrated, Confirmation, Diagnosis, EffectResult, NullRefit, SpectralAttenuation, Timings,
+};
 pub use run::{diagnose, diagnose_compound};
 pub use screening::{score_candidate, Score};
 pub use verdict::{name_effect, names_an_effect, unnamed_verdict, Verdict, VerdictRule};

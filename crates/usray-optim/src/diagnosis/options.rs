@@ -130,7 +130,10 @@ pub struct DiagnoseOptions {
     /// The measured channel data the measured image was formed from, where
     /// the data are channels (default `None`: an image only). With them a
     /// centre-frequency refit is checked against how the echoes' spectra
-    /// shift along their path ([`super::VerdictRule::min_spectral_z`]).
+    /// shift along their path ([`super::VerdictRule::min_spectral_z`]), and
+    /// where the image names nothing, the attenuation that shift shows
+    /// against the scene as given may be named
+    /// ([`super::VerdictRule::spectra_show_attenuation`]).
     pub measured_channels: Option<MeasuredChannels>,
     /// Set by [`super::diagnose_compound`] for a later round (default `None`,
     /// a first round): what the first round found, for

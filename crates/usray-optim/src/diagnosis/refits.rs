@@ -286,8 +286,6 @@ pub(crate) fn refit_leading(
     opts: &DiagnoseOptions,
     progress: &mut dyn FnMut(&str),
 ) -> (Vec<Refitted>, f64) {
-    let (held_losses, held_loss, noise_loss) =
-        (&stage.held_losses, stage.held_loss, stage.noise_loss);
     let mut refits = Vec::new();
     let mut spread_s = 0.0;
     let completed = |k: &usize| effects[*k].failed.is_none();
@@ -325,28 +323,8 @@ pub(crate) fn refit_leading(
             }
         };
         spread_s += r.spread_s;
-        let after_loss = mean(&r.after_held.per_seed);
-        let (shrink, shrink_std) = mean_and_se(&relative_differences(
-            held_losses,
-            &r.after_held.per_seed,
-            held_loss,
-        ));
-        let (excess, excess_std) = mean_and_se(&relative_differences(
-            &baseline.per_seed,
-            &r.after_held.per_seed,
-            held_loss,
-        ));
         let e = &mut effects[k];
-        e.loss_after = Some(after_loss);
-        e.shrink = Some(shrink);
-        e.shrink_std = shrink_std;
-        e.excess = Some(excess);
-        e.excess_std = excess_std;
-        e.excess_spatial_std =
-            excess_spatial_std(&baseline.blocks, &r.after_held.blocks, held_loss);
-        e.gap_explained =
-            (held_loss > noise_loss).then(|| (held_loss - after_loss) / (held_loss - noise_loss));
-        e.held_out_losses = r.after_held.per_seed.clone();
+        record_held_out(e, &r.after_held, stage, baseline);
         e.params = r.params.into_iter().collect();
         e.params_std = r.params_std.into_iter().collect();
         e.detection_limit = c
@@ -369,6 +347,39 @@ pub(crate) fn refit_leading(
         });
     }
     (refits, spread_s)
+}
+
+/// Fills `e`'s held-out statistics from its model's held-out losses `after`:
+/// the shrink against the calibrated model's, the excess over the control's
+/// `baseline` (over the seeds and over the image's blocks), and the share of
+/// the gap above the noise level it explains.
+pub(crate) fn record_held_out(
+    e: &mut EffectResult,
+    after: &HeldOutLosses,
+    stage: &Stage,
+    baseline: &HeldOutLosses,
+) {
+    let (held_loss, noise_loss) = (stage.held_loss, stage.noise_loss);
+    let after_loss = mean(&after.per_seed);
+    let (shrink, shrink_std) = mean_and_se(&relative_differences(
+        &stage.held_losses,
+        &after.per_seed,
+        held_loss,
+    ));
+    let (excess, excess_std) = mean_and_se(&relative_differences(
+        &baseline.per_seed,
+        &after.per_seed,
+        held_loss,
+    ));
+    e.loss_after = Some(after_loss);
+    e.shrink = Some(shrink);
+    e.shrink_std = shrink_std;
+    e.excess = Some(excess);
+    e.excess_std = excess_std;
+    e.excess_spatial_std = excess_spatial_std(&baseline.blocks, &after.blocks, held_loss);
+    e.gap_explained =
+        (held_loss > noise_loss).then(|| (held_loss - after_loss) / (held_loss - noise_loss));
+    e.held_out_losses = after.per_seed.clone();
 }
 
 /// [`EffectResult::absence_cost`] and its standard error: the refitted

@@ -9,7 +9,7 @@
 
 use super::refits::DETECTION_LIMIT_SPREADS;
 use super::residual::{residual_scale, GreyStats, ResidualReport};
-use super::results::{Confirmation, Diagnosis, EffectResult};
+use super::results::{Confirmation, Diagnosis, EffectResult, SpectralAttenuation};
 use super::verdict::{names_an_effect, TIE_MARGIN};
 use crate::mirror::impedance_mirror;
 use crate::objective::grid_shape;
@@ -111,6 +111,7 @@ impl Report<'_> {
                         "seconds": r.timings.total_s,
                         "next_round_stopped": r.next_round_stopped,
                         "spectral_shift": r.spectral_shift,
+                        "spectral_attenuation": r.spectral_attenuation,
                         "effects": r.effects,
                     })
                 })
@@ -208,6 +209,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 }
             }
         }
+        _ if d.spectral_attenuation.as_ref().is_some_and(|s| s.named) => {}
         e => {
             writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {}.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, signed_percent(-d.null_refit.shrink))?;
             if let Some(g) = named_effect(d).and_then(|x| x.gap_explained) {
@@ -284,6 +286,9 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     }
     if let Some(shift) = &d.spectral_shift {
         spectral_paragraph(&mut r, "The echoes' spectra", d, shift)?;
+    }
+    if let Some(sa) = &d.spectral_attenuation {
+        spectral_attenuation_paragraph(&mut r, "The echoes' spectra along their path", d, sa)?;
     }
     if !d.verdict.alternatives.is_empty() {
         let alt: Vec<String> = d
@@ -515,6 +520,11 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 let heading = format!("Round {}, the echoes' spectra", i + 1);
                 spectral_paragraph(&mut r, &heading, round, shift)?;
             }
+            if let Some(sa) = &round.spectral_attenuation {
+                writeln!(r)?;
+                let heading = format!("Round {}, the echoes' spectra along their path", i + 1);
+                spectral_attenuation_paragraph(&mut r, &heading, round, sa)?;
+            }
             for e in &round.effects {
                 let Some(a) = e.additivity.filter(|a| *a < round.rule.min_additivity) else {
                     continue;
@@ -562,14 +572,59 @@ fn spectral_paragraph(
     };
     writeln!(
         r,
-        "**{heading}:** over {} echoes of the measured channel data, their mean frequency lies {:+.3} MHz from the null refit's model's and changes by {:+.3} MHz per cm of two-way path against it: as an attenuation beyond the model's (Kuc 1984: `α₀ = −slope / 2σ²`, σ² = {:.3} MHz² the measured spectrum's variance), {:+.2}{} dB/(cm·MHz), {reading} (the rule: {:.0} standard errors, `usray_signal::spectral_shift`).\n",
+        "**{heading}:** {}, {reading} (the rule: {:.0} standard errors, `usray_signal::spectral_shift`).\n",
+        shift_text(shift, "the null refit's model's"),
+        d.rule.min_spectral_z
+    )
+}
+
+/// What the echoes' spectra showed of an attenuation where the image named
+/// nothing ([`Diagnosis::spectral_attenuation`]).
+fn spectral_attenuation_paragraph(
+    r: &mut String,
+    heading: &str,
+    d: &Diagnosis,
+    sa: &SpectralAttenuation,
+) -> fmt::Result {
+    let named = named_effect(d).filter(|_| sa.named);
+    let reading = match named {
+        Some(e) => format!(
+            "so the medium's attenuation is named, at {} dB/(cm·MHz) (the scene's plus this). The image alone named nothing: the calibration's parameters, fitted to the image, may stand in for an attenuation's darkening. With the null refit's parameters and this attenuation, the held-out loss changes by {} against the null refit ({} over the seeds, ± {} over the image): what the image says of the value the spectra found, reported, not tested",
+            short(e.params.get(&e.path).copied().unwrap_or(f64::NAN)),
+            signed_percent(-e.excess.unwrap_or(0.0)),
+            excess_text(e),
+            e.excess_spatial_std.map_or("—".into(), |s| format!("{s:.3}")),
+        ),
+        None => format!(
+            "not an attenuation of at least {:.0} standard errors: none is named",
+            d.rule.min_spectral_z
+        ),
+    };
+    writeln!(
+        r,
+        "**{heading}:** {}, {reading} (`usray_signal::spectral_shift`).\n",
+        shift_text(
+            &sa.shift,
+            "your scene's, rendered as given before the calibration,"
+        )
+    )
+}
+
+/// A spectral shift against `model` (`"the null refit's model's"`) in words:
+/// the echoes, their offset, their trend along the path, and the
+/// attenuation that trend implies.
+fn shift_text(shift: &SpectralShift, model: &str) -> String {
+    let z = shift
+        .attenuation_z()
+        .map_or(String::new(), |z| format!(", {z:+.1} standard errors"));
+    format!(
+        "over {} echoes of the measured channel data, their mean frequency lies {:+.3} MHz from {model} and changes by {:+.3} MHz per cm of two-way path against it: as an attenuation beyond the model's (Kuc 1984: `α₀ = −slope / 2σ²`, σ² = {:.3} MHz² the measured spectrum's variance), {:+.2}{} dB/(cm·MHz){z}",
         shift.echoes.len(),
         shift.offset_hz / 1e6,
         shift.slope_hz_per_m / 1e6 / 100.0,
         shift.spectral_variance_hz2 / 1e12,
         shift.attenuation_db_cm_mhz,
         plus_minus(shift.attenuation_std),
-        d.rule.min_spectral_z
     )
 }
 

@@ -10,6 +10,20 @@ use crate::comparison::Comparison;
 use std::collections::BTreeMap;
 use usray_transport::Scene;
 
+/// The medium's attenuation as the measured echoes' spectra show it
+/// ([`Diagnosis::spectral_attenuation`]).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SpectralAttenuation {
+    /// The spectral shift of the measured channels against the round's scene
+    /// as given, rendered at the calibration's rays and seed: its
+    /// `attenuation_db_cm_mhz` is the attenuation beyond the scene's.
+    pub shift: usray_signal::SpectralShift,
+    /// Whether it named the medium's attenuation, at the scene's value plus
+    /// the shift's estimate; the candidate's held-out numbers are then those
+    /// of the control's scene with it switched on at that value.
+    pub named: bool,
+}
+
 /// The calibrated base model.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Calibrated {
@@ -404,8 +418,11 @@ pub struct Timings {
     /// Step 4's second look at borderline refits on fresh seeds
     /// ([`Confirmation`]).
     pub confirmation_s: f64,
-    /// The spectral check of a centre-frequency refit
-    /// ([`Diagnosis::spectral_shift`]): one render of the model's channels.
+    /// The echoes' spectra: the check of a centre-frequency refit
+    /// ([`Diagnosis::spectral_shift`]) and the attenuation they show where
+    /// the image names nothing ([`Diagnosis::spectral_attenuation`]), one
+    /// render of the model's channels each, and the held-out renders of an
+    /// attenuation they name.
     pub spectral_s: f64,
     /// The whole diagnosis.
     pub total_s: f64,
@@ -481,6 +498,13 @@ pub struct Diagnosis {
     /// otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spectral_shift: Option<usray_signal::SpectralShift>,
+    /// Where the image names no effect and the measured data are channels:
+    /// how the measured echoes' spectra shift against the round's scene as
+    /// given (before its calibration), and whether that named the medium's
+    /// attenuation ([`super::VerdictRule::spectra_show_attenuation`]).
+    /// Absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectral_attenuation: Option<SpectralAttenuation>,
     /// Why no further compound round followed this one where one was asked
     /// ([`super::diagnose_compound`]): the budget left could not pay for it,
     /// or it failed. Absent when the rounds ran out or nothing was named.

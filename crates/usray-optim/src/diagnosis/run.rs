@@ -12,7 +12,7 @@ use super::refits::{null_refit, quarter_from_null, refit_leading, Control};
 use super::residual::{analyse_residual, ResidualOptions};
 use super::results::{Calibrated, Diagnosis, EffectResult, Timings};
 use super::screening::{screen, Screening};
-use super::spectral_check::check_centre_frequency;
+use super::spectral_check::{attenuation_from_spectra, check_centre_frequency};
 use super::verdict::{name_effect, unnamed_verdict, Verdict};
 use crate::spread::parameter_spread;
 use crate::OptimError;
@@ -198,8 +198,31 @@ pub fn diagnose(
             .collect();
         (i, alternatives)
     });
-    let (verdict, after_image, after_scene) = match named {
-        Some((i, alternatives)) => {
+    // Where the image names nothing, the attenuation the echoes' spectra
+    // show against the scene as given (test 9).
+    let unnamed = named
+        .is_none()
+        .then(|| unnamed_verdict(&refitted, &opts.rule, noise_check.passed));
+    let t = Instant::now();
+    let (spectral_attenuation, from_spectra) = if unnamed == Some("none") {
+        attenuation_from_spectra(
+            scene,
+            &candidates,
+            &mut effects,
+            &stage,
+            &baseline_scene,
+            &baseline,
+            measured,
+            held_data,
+            opts,
+            &mut progress,
+        )
+    } else {
+        (None, None)
+    };
+    timings.spectral_s += t.elapsed().as_secs_f64();
+    let (verdict, after_image, after_scene) = match (named, from_spectra, unnamed) {
+        (Some((i, alternatives)), _, _) => {
             let r = refits.swap_remove(i);
             let e = &effects[r.candidate];
             (
@@ -213,19 +236,29 @@ pub fn diagnose(
                 Some(r.scene),
             )
         }
-        None => {
-            let effect = unnamed_verdict(&refitted, &opts.rule, noise_check.passed);
+        (None, Some(n), _) => {
+            let e = &effects[n.candidate];
             (
                 Verdict {
-                    effect: effect.into(),
-                    path: None,
-                    shrink: 0.0,
+                    effect: e.effect.clone(),
+                    path: Some(e.path.clone()),
+                    shrink: e.shrink.unwrap_or(0.0),
                     alternatives: vec![],
                 },
-                stage.eval.image.data.clone(),
-                None,
+                n.image_s,
+                Some(n.scene),
             )
         }
+        (None, None, effect) => (
+            Verdict {
+                effect: effect.unwrap_or("none").into(),
+                path: None,
+                shrink: 0.0,
+                alternatives: vec![],
+            },
+            stage.eval.image.data.clone(),
+            None,
+        ),
     };
     let ranked: Vec<EffectResult> = order.iter().map(|&k| effects[k].clone()).collect();
     timings.total_s = started.elapsed().as_secs_f64();
@@ -260,6 +293,7 @@ pub fn diagnose(
         max_bounces,
         timings,
         spectral_shift,
+        spectral_attenuation,
         next_round_stopped: None,
         residual,
         calibrated_image: stage.eval.image.data,

@@ -1,18 +1,30 @@
-//! Step 5's spectral check of a centre-frequency refit: do the measured
-//! echoes' spectra shift alike along every path, as a centre frequency
-//! shifts them, or the more the longer the path, as an attenuation does
-//! ([`super::VerdictRule::min_spectral_z`])?
+//! Step 5 and the echoes' spectra: do the measured echoes' spectra shift
+//! alike along every path, as a centre frequency shifts them, or the more the
+//! longer the path, as an attenuation does ([`super::VerdictRule::min_spectral_z`])?
+//! Two uses: a centre-frequency refit is checked against them
+//! ([`check_centre_frequency`]), and where the image names nothing they may
+//! name the medium's attenuation ([`attenuation_from_spectra`]).
 
 use super::calibration::Stage;
+use super::catalogue::Candidate;
+use super::held_out::held_out;
 use super::options::DiagnoseOptions;
-use super::refits::Refitted;
-use super::results::EffectResult;
+use super::refits::{record_held_out, Refitted};
+use super::results::{EffectResult, SpectralAttenuation};
+use super::spatial::{block_px, held_out_losses, HeldOutLosses};
 use super::verdict::qualifies;
+use crate::objective::Objective;
+use crate::OptimError;
 use usray_signal::{spectral_shift, SpectralShift, SpectralShiftOptions};
 use usray_transport::Scene;
 
 /// The path of the probe's centre frequency, the one candidate checked.
 const CENTER_FREQUENCY: &str = "probe.center_frequency_hz";
+
+/// The path of the medium's attenuation, the one candidate the spectra name:
+/// the echoes' shift averages the attenuation over their whole path, most of
+/// which lies in the medium.
+const MEDIUM_ATTENUATION: &str = "medium.attenuation_db_cm_mhz";
 
 /// Where a centre-frequency refit of `refits` would be named by every other
 /// test of the verdict and the measured data are channels
@@ -33,34 +45,157 @@ pub(crate) fn check_centre_frequency(
     noise_passed: bool,
     progress: &mut dyn FnMut(&str),
 ) -> Option<SpectralShift> {
-    let measured = opts.measured_channels.as_ref()?;
+    opts.measured_channels.as_ref()?;
     let k = refits.iter().map(|r| r.candidate).find(|&k| {
         effects[k].path == CENTER_FREQUENCY && qualifies(&effects[k], noise_passed, &opts.rule)
     })?;
     progress("checking the centre frequency against the echoes' spectra along their path");
-    let model = match usray_transport::render(baseline_scene, &stage.render_s) {
+    let shift = measured_shift(baseline_scene, stage, opts, progress)?;
+    effects[k].spectral_z = shift.attenuation_z();
+    Some(shift)
+}
+
+/// The spectral shift of the measured channels against `scene`'s, rendered at
+/// the stage's seed and rays; `None`, reported through `progress`, where the
+/// data are not channels, the render fails or the shift cannot be measured
+/// (too few echoes).
+fn measured_shift(
+    scene: &Scene,
+    stage: &Stage,
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(&str),
+) -> Option<SpectralShift> {
+    let measured = opts.measured_channels.as_ref()?;
+    let model = match usray_transport::render(scene, &stage.render_s) {
         Ok((channels, _)) => channels,
         Err(e) => {
             progress(&format!(
-                "spectral check not made: the model's render failed: {e}"
+                "spectral shift not measured: the model's render failed: {e}"
             ));
             return None;
         }
     };
-    match spectral_shift(
+    spectral_shift(
         &measured.0,
         &model,
-        baseline_scene.medium.sound_speed_m_s,
-        baseline_scene.probe.center_frequency_hz,
+        scene.medium.sound_speed_m_s,
+        scene.probe.center_frequency_hz,
         &SpectralShiftOptions::default(),
-    ) {
-        Ok(shift) => {
-            effects[k].spectral_z = shift.attenuation_z();
-            Some(shift)
+    )
+    .map_err(|e| progress(&format!("spectral shift not measured: {e}")))
+    .ok()
+}
+
+/// An attenuation the echoes' spectra named: its candidate, and the control's
+/// scene with it switched on and that scene's image on the stage's seed.
+pub(crate) struct NamedFromSpectra {
+    /// Index of the medium's attenuation among the candidates.
+    pub candidate: usize,
+    /// The image of `scene` on the calibration's seed.
+    pub image_s: Vec<f64>,
+    /// The control's scene with the attenuation switched on.
+    pub scene: Scene,
+}
+
+/// Verdict test 9, where the image names no effect and the measured data are
+/// channels: the spectral shift of the measured echoes against `scene`, the
+/// round's scene as given (before its calibration, whose parameters, fitted
+/// to the image, may stand in for an attenuation's darkening and change the
+/// echoes' spectra with it), rendered at the stage's seed and rays. Where it
+/// shows an attenuation beyond the scene's
+/// ([`super::VerdictRule::spectra_show_attenuation`]) and the medium's
+/// attenuation is a candidate, that attenuation is named at the scene's
+/// value plus the estimate (within the candidate's range), and its
+/// candidate's held-out numbers are filled from the control's scene
+/// (`baseline_scene`, whose held-out losses are `baseline`) with it switched
+/// on: what the image says of the value the spectra found, reported, not
+/// tested. Returns the shift (absent where none was measured) and what it
+/// named; a failed render of the named model is reported through `progress`
+/// and names nothing.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn attenuation_from_spectra(
+    scene: &Scene,
+    candidates: &[Candidate],
+    effects: &mut [EffectResult],
+    stage: &Stage,
+    baseline_scene: &Scene,
+    baseline: &HeldOutLosses,
+    measured: &[f64],
+    held_data: &[f64],
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(&str),
+) -> (Option<SpectralAttenuation>, Option<NamedFromSpectra>) {
+    let Some(k) = effects
+        .iter()
+        .position(|e| e.path == MEDIUM_ATTENUATION && e.failed.is_none())
+    else {
+        return (None, None);
+    };
+    if opts.measured_channels.is_none() {
+        return (None, None);
+    }
+    progress("measuring the attenuation the echoes' spectra show along their path");
+    let Some(shift) = measured_shift(scene, stage, opts, progress) else {
+        return (None, None);
+    };
+    let shows = opts.rule.spectra_show_attenuation(&shift);
+    let record = |named: bool| {
+        Some(SpectralAttenuation {
+            shift: shift.clone(),
+            named,
+        })
+    };
+    if !shows {
+        return (record(false), None);
+    }
+    let c = &candidates[k];
+    let value = (scene.medium.attenuation_db_cm_mhz + shift.attenuation_db_cm_mhz)
+        .clamp(c.range.0, c.range.1);
+    match switched_on_held_out(c, value, baseline_scene, stage, measured, held_data) {
+        Ok((after, image_s, on)) => {
+            let e = &mut effects[k];
+            record_held_out(e, &after, stage, baseline);
+            e.params = [(e.path.clone(), value)].into();
+            e.params_std.clear();
+            (
+                record(true),
+                Some(NamedFromSpectra {
+                    candidate: k,
+                    image_s,
+                    scene: on,
+                }),
+            )
         }
-        Err(e) => {
-            progress(&format!("spectral check not made: {e}"));
-            None
+        Err(err) => {
+            progress(&format!(
+                "the attenuation the spectra show was not named: its model failed: {err}"
+            ));
+            (record(false), None)
         }
     }
+}
+
+/// `c` switched on at `value` in `scene`: its held-out losses, its image on
+/// the stage's seed, and the scene.
+fn switched_on_held_out(
+    c: &Candidate,
+    value: f64,
+    scene: &Scene,
+    stage: &Stage,
+    measured: &[f64],
+    held_data: &[f64],
+) -> Result<(HeldOutLosses, Vec<f64>, Scene), OptimError> {
+    let on = c.switched_on(scene, value)?;
+    let evals = held_out(&on, held_data, &stage.renders_held, &stage.setup)?;
+    let after = held_out_losses(&stage.setup, held_data, &evals, block_px(&stage.scene));
+    let image_s = Objective::new(
+        on.clone(),
+        measured.to_vec(),
+        vec![],
+        stage.render_s.clone(),
+    )?
+    .value(&[])?
+    .image
+    .data;
+    Ok((after, image_s, on))
 }

@@ -70,7 +70,9 @@ pub struct VerdictRule {
     /// raised one, where it shrinks, for one too many). The standard error
     /// comes from the scatter of a few echoes about the line (six on a
     /// ring seen by three plane waves), not from replicates: 3 of them is a
-    /// rule of thumb, not a calibrated level.
+    /// rule of thumb, not a calibrated level. The same level names the
+    /// medium's attenuation from the spectra where the image names nothing
+    /// ([`VerdictRule::spectra_show_attenuation`]).
     pub min_spectral_z: f64,
 }
 
@@ -164,6 +166,34 @@ impl VerdictRule {
             return false;
         };
         (*v < null && z >= self.min_spectral_z) || (*v > null && z <= -self.min_spectral_z)
+    }
+
+    /// Whether the measured echoes' spectral shift against a model, `shift`,
+    /// shows an attenuation beyond the model's: positive and at least
+    /// [`VerdictRule::min_spectral_z`] standard errors. Where the image names
+    /// no effect, the diagnosis names the medium's attenuation on it,
+    /// measured against the round's scene as given (verdict test 9,
+    /// docs/diagnosis.md).
+    ///
+    /// ```
+    /// use usray_optim::VerdictRule;
+    /// use usray_signal::SpectralShift;
+    /// let shift = |alpha: f64, se: f64| SpectralShift {
+    ///     echoes: vec![], offset_hz: -0.07e6, slope_hz_per_m: 0.0, slope_std: None,
+    ///     spectral_variance_hz2: 0.25e12, attenuation_db_cm_mhz: alpha,
+    ///     attenuation_std: Some(se),
+    /// };
+    /// let rule = VerdictRule::default();
+    /// assert!(rule.spectra_show_attenuation(&shift(0.50, 0.004)));
+    /// assert!(!rule.spectra_show_attenuation(&shift(0.05, 0.027))); // 1.9 standard errors
+    /// assert!(!rule.spectra_show_attenuation(&shift(-0.25, 0.05))); // gaining frequency
+    /// ```
+    #[must_use]
+    pub fn spectra_show_attenuation(&self, shift: &usray_signal::SpectralShift) -> bool {
+        shift.attenuation_db_cm_mhz > 0.0
+            && shift
+                .attenuation_z()
+                .is_some_and(|z| z >= self.min_spectral_z)
     }
 
     /// Whether `e`'s first look is borderline: spread over the image, but
