@@ -2,7 +2,7 @@
 # Makes tier (b)'s full-wave channel data: every case of common.CASES at -8, 0, +8 degrees,
 # two k-Wave runs at a time, then finalize.py into OUT (default bench/kwave/data).
 # Needs a Python with k-wave-python 0.6.2, scipy and matplotlib (README.md); PYTHON selects it.
-# Raw runs go to $KWAVE_SCRATCH/raw and are reused when present. 90 runs of 15-150 s each.
+# Raw runs go to $KWAVE_SCRATCH/raw and are reused when present. 102 runs of 15-150 s each.
 set -eu
 HERE=$(cd "$(dirname "$0")" && pwd)
 OUT=${1:-$HERE/data}
