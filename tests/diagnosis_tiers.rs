@@ -233,20 +233,23 @@ fn tier_a_compound_speckle_and_pulse_names_the_speckle_first() {
 }
 
 /// The 5 mm k-Wave ring whose wall is 0.9 mm, diagnosed against the modelled
-/// 0.15 mm wall: `wall_thickness` must be named with the wall refitted past half
-/// way to the truth. Traced in 2-D, as the data declare: at full size (20 rays,
-/// 40 iterations) the wall comes out 0.93 mm (excess over the null refit 0.34,
-/// 0.38 of the gap explained); at this size 0.89 mm, excess 0.310 ± 0.007 (in
-/// 3-D it was 0.53 mm, excess 0.201, the 0.2 threshold cleared by a hair).
-#[test]
-fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
+/// k-Wave's `case` of the ring g1 diagnosed against `bench/kwave/g1.toml` at
+/// CI size (12 rays, 24 iterations, one refit), traced in 2-D as the data
+/// declare, as `usray diagnose` does; with its channels beside the image
+/// where `with_channels` (as `usray diagnose` passes a channel-data file).
+fn diagnose_kwave_g1(case: &str, with_channels: bool) -> Diagnosis {
     let mut base = Scene::load("bench/kwave/g1.toml").unwrap();
-    let data = Path::new("bench/kwave/data/g1_wall.json");
-    // The data declare a 2-D simulation: traced in 2-D, as `usray diagnose` does.
+    let data = format!("bench/kwave/data/{case}.json");
+    let data = Path::new(&data);
     assert!(follow_declared_dimensions(&mut base, data)
         .unwrap()
         .is_some());
     let measured = load_reference(data, &base).unwrap();
+    let measured_channels = with_channels.then(|| {
+        MeasuredChannels(std::sync::Arc::new(
+            usray::signal::read_channels(data).unwrap(),
+        ))
+    });
     let _serial = ONE_AT_A_TIME
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
@@ -258,9 +261,20 @@ fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
             rays_per_element: Some(12),
             ..Default::default()
         },
+        measured_channels,
         ..Default::default()
     };
-    let d = diagnose(&base, &measured, &opts, |_| {}).unwrap();
+    diagnose(&base, &measured, &opts, |_| {}).unwrap()
+}
+
+/// 0.15 mm wall: `wall_thickness` must be named with the wall refitted past half
+/// way to the truth. Traced in 2-D, as the data declare: at full size (20 rays,
+/// 40 iterations) the wall comes out 0.93 mm (excess over the null refit 0.34,
+/// 0.38 of the gap explained); at this size 0.89 mm, excess 0.310 ± 0.007 (in
+/// 3-D it was 0.53 mm, excess 0.201, the 0.2 threshold cleared by a hair).
+#[test]
+fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
+    let d = diagnose_kwave_g1("g1_wall", false);
     let wall = d
         .effects
         .iter()
@@ -292,28 +306,7 @@ fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
 /// full size (20 rays, 40 iterations): 0.499 ± 0.004 dB/(cm·MHz).
 #[test]
 fn tier_b_kwave_ring_attenuation_is_named_from_the_echoes_spectra() {
-    let mut base = Scene::load("bench/kwave/g1.toml").unwrap();
-    let data = Path::new("bench/kwave/data/g1_atten.json");
-    assert!(follow_declared_dimensions(&mut base, data)
-        .unwrap()
-        .is_some());
-    let measured = load_reference(data, &base).unwrap();
-    let channels = usray::signal::read_channels(data).unwrap();
-    let _serial = ONE_AT_A_TIME
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner);
-    let opts = DiagnoseOptions {
-        calibration_iters: 24,
-        refit_iters: 24,
-        confirm_top: 1,
-        render: RenderOptions {
-            rays_per_element: Some(12),
-            ..Default::default()
-        },
-        measured_channels: Some(MeasuredChannels(std::sync::Arc::new(channels))),
-        ..Default::default()
-    };
-    let d = diagnose(&base, &measured, &opts, |_| {}).unwrap();
+    let d = diagnose_kwave_g1("g1_atten", true);
     let sa = d.spectral_attenuation.as_ref();
     eprintln!(
         "k-Wave g1_atten: verdict {}, spectra {:?}",

@@ -139,16 +139,7 @@ fn refit_candidate(
     let fitted = obj.scene_at(&best)?;
     let after = held_out(&fitted, held_data, &stage.renders_held, &stage.setup)?;
     let t_spread = Instant::now();
-    // The refit's image on the fit's seed (one render, also with a paired loss).
-    let image_s = Objective::new(
-        fitted.clone(),
-        measured.to_vec(),
-        vec![],
-        stage.render_s.clone(),
-    )?
-    .value(&[])?
-    .image
-    .data;
+    let image_s = image_on_fit_seed(&fitted, measured, stage)?;
     let std = parameter_spread(
         &obj,
         &best,
@@ -347,6 +338,24 @@ pub(crate) fn refit_leading(
         });
     }
     (refits, spread_s)
+}
+
+/// `scene`'s image on the fit's seed (one render, also with a paired loss):
+/// the image a verdict's model is shown by.
+pub(crate) fn image_on_fit_seed(
+    scene: &Scene,
+    measured: &[f64],
+    stage: &Stage,
+) -> Result<Vec<f64>, OptimError> {
+    Ok(Objective::new(
+        scene.clone(),
+        measured.to_vec(),
+        vec![],
+        stage.render_s.clone(),
+    )?
+    .value(&[])?
+    .image
+    .data)
 }
 
 /// Fills `e`'s held-out statistics from its model's held-out losses `after`:

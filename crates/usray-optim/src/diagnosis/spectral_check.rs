@@ -9,11 +9,10 @@ use super::calibration::Stage;
 use super::catalogue::Candidate;
 use super::held_out::held_out;
 use super::options::DiagnoseOptions;
-use super::refits::{record_held_out, Refitted};
+use super::refits::{image_on_fit_seed, record_held_out, Refitted};
 use super::results::{EffectResult, SpectralAttenuation};
 use super::spatial::{block_px, held_out_losses, HeldOutLosses};
 use super::verdict::qualifies;
-use crate::objective::Objective;
 use crate::OptimError;
 use usray_signal::{spectral_shift, SpectralShift, SpectralShiftOptions};
 use usray_transport::Scene;
@@ -188,14 +187,6 @@ fn switched_on_held_out(
     let on = c.switched_on(scene, value)?;
     let evals = held_out(&on, held_data, &stage.renders_held, &stage.setup)?;
     let after = held_out_losses(&stage.setup, held_data, &evals, block_px(&stage.scene));
-    let image_s = Objective::new(
-        on.clone(),
-        measured.to_vec(),
-        vec![],
-        stage.render_s.clone(),
-    )?
-    .value(&[])?
-    .image
-    .data;
+    let image_s = image_on_fit_seed(&on, measured, stage)?;
     Ok((after, image_s, on))
 }
