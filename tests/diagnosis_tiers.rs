@@ -234,10 +234,10 @@ fn tier_a_compound_speckle_and_pulse_names_the_speckle_first() {
 
 /// The 5 mm k-Wave ring whose wall is 0.9 mm, diagnosed against the modelled
 /// k-Wave's `case` of the ring g1 diagnosed against `bench/kwave/g1.toml` at
-/// CI size (12 rays, 24 iterations, one refit), traced in 2-D as the data
+/// CI size (12 rays, `iters` iterations, one refit), traced in 2-D as the data
 /// declare, as `usray diagnose` does; with its channels beside the image
 /// where `with_channels` (as `usray diagnose` passes a channel-data file).
-fn diagnose_kwave_g1(case: &str, with_channels: bool) -> Diagnosis {
+fn diagnose_kwave_g1(case: &str, with_channels: bool, iters: usize) -> Diagnosis {
     let mut base = Scene::load("bench/kwave/g1.toml").unwrap();
     let data = format!("bench/kwave/data/{case}.json");
     let data = Path::new(&data);
@@ -254,8 +254,8 @@ fn diagnose_kwave_g1(case: &str, with_channels: bool) -> Diagnosis {
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
     let opts = DiagnoseOptions {
-        calibration_iters: 24,
-        refit_iters: 24,
+        calibration_iters: iters,
+        refit_iters: iters,
         confirm_top: 1,
         render: RenderOptions {
             rays_per_element: Some(12),
@@ -274,7 +274,7 @@ fn diagnose_kwave_g1(case: &str, with_channels: bool) -> Diagnosis {
 /// 3-D it was 0.53 mm, excess 0.201, the 0.2 threshold cleared by a hair).
 #[test]
 fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
-    let d = diagnose_kwave_g1("g1_wall", false);
+    let d = diagnose_kwave_g1("g1_wall", false, 24);
     let wall = d
         .effects
         .iter()
@@ -306,7 +306,7 @@ fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
 /// full size (20 rays, 40 iterations): 0.499 ± 0.004 dB/(cm·MHz).
 #[test]
 fn tier_b_kwave_ring_attenuation_is_named_from_the_echoes_spectra() {
-    let d = diagnose_kwave_g1("g1_atten", true);
+    let d = diagnose_kwave_g1("g1_atten", true, 12);
     let sa = d.spectral_attenuation.as_ref();
     eprintln!(
         "k-Wave g1_atten: verdict {}, spectra {:?}",
