@@ -209,6 +209,7 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                 }
             }
         }
+        // Named by the echoes' spectra: their paragraph below says how.
         _ if d.spectral_attenuation.as_ref().is_some_and(|s| s.named) => {}
         e => {
             writeln!(r, "Switching on `{e}` and refitting shrinks the held-out loss by **{:.0}%** (from {:.4e}); refitting the base parameters alone for as long (the null refit) changes it by {}.", 100.0 * d.verdict.shrink, d.calibrated.loss_held_out, signed_percent(-d.null_refit.shrink))?;

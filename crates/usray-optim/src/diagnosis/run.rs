@@ -198,33 +198,37 @@ pub fn diagnose(
             .collect();
         (i, alternatives)
     });
-    // Where the image names nothing, the attenuation the echoes' spectra
-    // show against the scene as given (test 9).
-    let unnamed = named
-        .is_none()
-        .then(|| unnamed_verdict(&refitted, &opts.rule, noise_check.passed));
-    let t = Instant::now();
-    let (spectral_attenuation, from_spectra) = if unnamed == Some("none") {
-        attenuation_from_spectra(
-            scene,
-            &candidates,
-            &mut effects,
-            &stage,
-            &baseline_scene,
-            &baseline,
-            measured,
-            held_data,
-            opts,
-            &mut progress,
-        )
-    } else {
-        (None, None)
-    };
-    timings.spectral_s += t.elapsed().as_secs_f64();
-    let (verdict, after_image, after_scene) = match (named, from_spectra, unnamed) {
-        (Some((i, alternatives)), _, _) => {
+    // The effect the image names; where it names nothing, the attenuation
+    // the echoes' spectra show against the scene as given (test 9).
+    let mut spectral_attenuation = None;
+    let named = match named {
+        Some((i, alternatives)) => {
             let r = refits.swap_remove(i);
-            let e = &effects[r.candidate];
+            Some((r.candidate, alternatives, r.image_s, r.scene))
+        }
+        None if unnamed_verdict(&refitted, &opts.rule, noise_check.passed) == "none" => {
+            let t = Instant::now();
+            let (shown, from_spectra) = attenuation_from_spectra(
+                scene,
+                &candidates,
+                &mut effects,
+                &stage,
+                &baseline_scene,
+                &baseline,
+                measured,
+                held_data,
+                opts,
+                &mut progress,
+            );
+            timings.spectral_s += t.elapsed().as_secs_f64();
+            spectral_attenuation = shown;
+            from_spectra.map(|n| (n.candidate, vec![], n.image_s, n.scene))
+        }
+        None => None,
+    };
+    let (verdict, after_image, after_scene) = match named {
+        Some((k, alternatives, image_s, named_scene)) => {
+            let e = &effects[k];
             (
                 Verdict {
                     effect: e.effect.clone(),
@@ -232,26 +236,13 @@ pub fn diagnose(
                     shrink: e.shrink.unwrap_or(0.0),
                     alternatives,
                 },
-                r.image_s,
-                Some(r.scene),
+                image_s,
+                Some(named_scene),
             )
         }
-        (None, Some(n), _) => {
-            let e = &effects[n.candidate];
-            (
-                Verdict {
-                    effect: e.effect.clone(),
-                    path: Some(e.path.clone()),
-                    shrink: e.shrink.unwrap_or(0.0),
-                    alternatives: vec![],
-                },
-                n.image_s,
-                Some(n.scene),
-            )
-        }
-        (None, None, effect) => (
+        None => (
             Verdict {
-                effect: effect.unwrap_or("none").into(),
+                effect: unnamed_verdict(&refitted, &opts.rule, noise_check.passed).into(),
                 path: None,
                 shrink: 0.0,
                 alternatives: vec![],
