@@ -59,7 +59,7 @@ pub use diagnosis::{
     simulation_noise_share, sound_speed_tolerance, unnamed_verdict, wall_thickness_tolerance,
     Calibrated, Candidate, Confirmation, DiagnoseOptions, Diagnosis, EffectResult, FirstRound,
     FreeParam, LossSetup, MeasuredChannels, NoiseCheck, NullRefit, Report, Score,
-    SpectralAttenuation, Timings, Verdict, VerdictRule,
+    SpectralAttenuation, SpectralCentre, Timings, Verdict, VerdictRule,
 };
 pub use fd::{best_fd, fd_sweep, fd_sweeps, log_steps, sweep_steps, FdPoint};
 pub use fit::{fit, fit_journaled, FitOptions, FitResult, FitStep};

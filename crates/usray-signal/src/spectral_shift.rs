@@ -86,6 +86,9 @@ pub struct SpectralShift {
     pub echoes: Vec<EchoSpectrum>,
     /// Mean frequency of measured minus model at the weighted mean path, Hz.
     pub offset_hz: f64,
+    /// Standard error of [`SpectralShift::offset_hz`] from the echoes' scatter
+    /// about the line (`None` with fewer than three echoes).
+    pub offset_std: Option<f64>,
     /// How that difference changes with the two-way path, Hz per metre.
     pub slope_hz_per_m: f64,
     /// Standard error of the slope from the echoes' scatter about the line
@@ -102,6 +105,13 @@ pub struct SpectralShift {
 }
 
 impl SpectralShift {
+    /// [`SpectralShift::offset_hz`] in its standard errors.
+    pub fn offset_z(&self) -> Option<f64> {
+        self.offset_std
+            .filter(|s| *s > 0.0)
+            .map(|s| self.offset_hz / s)
+    }
+
     /// [`SpectralShift::attenuation_db_cm_mhz`] in its standard errors.
     pub fn attenuation_z(&self) -> Option<f64> {
         self.attenuation_std
@@ -261,6 +271,7 @@ pub fn spectral_shift(
     Ok(SpectralShift {
         echoes,
         offset_hz: line.offset,
+        offset_std: line.offset_std,
         slope_hz_per_m: line.slope,
         slope_std: line.slope_std,
         spectral_variance_hz2,
@@ -399,6 +410,7 @@ fn moments(power: &[f64], df: f64, band_hz: [f64; 2]) -> Option<(f64, f64)> {
 struct Line {
     /// Its value at the weighted mean of `x`.
     offset: f64,
+    offset_std: Option<f64>,
     slope: f64,
     slope_std: Option<f64>,
 }
@@ -407,8 +419,9 @@ struct Line {
 /// weighted mean of `x`. The slope's standard error takes the weights as
 /// relative precisions and the residual scale from the fit, with
 /// `n_eff = (Σw)²/Σw²` points (fewer than `n` where a few echoes dominate):
-/// `se² = Σ w r² / Σw / (n_eff − 2) / (Σ w (x − x̄)² / Σw)`; `None` where
-/// `n_eff ≤ 2`. `None` for the whole line where every `x` is the same.
+/// `se² = Σ w r² / Σw / (n_eff − 2) / (Σ w (x − x̄)² / Σw)`, and the
+/// offset's (the weighted mean's) `se² = Σ w r² / Σw / (n_eff − 2)`; `None`
+/// where `n_eff ≤ 2`. `None` for the whole line where every `x` is the same.
 fn weighted_line(x: &[f64], y: &[f64], w: &[f64]) -> Option<Line> {
     let sw: f64 = w.iter().sum();
     let xm = x.iter().zip(w).map(|(x, w)| w * x).sum::<f64>() / sw;
@@ -435,9 +448,11 @@ fn weighted_line(x: &[f64], y: &[f64], w: &[f64]) -> Option<Line> {
         .zip(w)
         .map(|((x, y), w)| w * (y - ym - slope * (x - xm)).powi(2))
         .sum::<f64>();
-    let slope_std = (n_eff > 2.0).then(|| (rss / sw / (n_eff - 2.0) / (sxx / sw)).sqrt());
+    let scale = (n_eff > 2.0).then(|| rss / sw / (n_eff - 2.0));
+    let slope_std = scale.map(|v| (v / (sxx / sw)).sqrt());
     Some(Line {
         offset: ym,
+        offset_std: scale.map(f64::sqrt),
         slope,
         slope_std,
     })
@@ -479,6 +494,33 @@ mod tests {
             n_samples: n,
             samples: x,
         }
+    }
+
+    #[test]
+    fn the_line_s_standard_errors_are_the_closed_form_s() {
+        // Equal weights, residuals ±0.1 or 0 about y = 3 + 2x at x = 0..6,
+        // summing to zero with and without the weight x (so the fit is the
+        // line itself and the residuals are these): the offset's
+        // standard error is sqrt(Σr²/n/(n − 2)), the slope's
+        // sqrt(Σr²/n/(n − 2)/(Σ(x − x̄)²/n)).
+        let x: Vec<f64> = (0..6).map(f64::from).collect();
+        let r = [0.1, -0.1, 0.0, 0.0, -0.1, 0.1];
+        let y: Vec<f64> = x.iter().zip(r).map(|(x, r)| 3.0 + 2.0 * x + r).collect();
+        let line = weighted_line(&x, &y, &[1.0; 6]).unwrap();
+        let (n, rss): (f64, f64) = (6.0, 4.0 * 0.01);
+        let sxx = x.iter().map(|x| (x - 2.5f64).powi(2)).sum::<f64>();
+        assert!(
+            (line.offset - (3.0 + 2.0 * 2.5)).abs() < 1e-12,
+            "{}",
+            line.offset
+        );
+        let offset_std = (rss / n / (n - 2.0)).sqrt();
+        assert!((line.offset_std.unwrap() - offset_std).abs() < 1e-12);
+        let slope_std = (rss / n / (n - 2.0) / (sxx / n)).sqrt();
+        assert!((line.slope_std.unwrap() - slope_std).abs() < 1e-12);
+        // Two points fit exactly and leave no spread to estimate.
+        let two = weighted_line(&x[..2], &y[..2], &[1.0; 2]).unwrap();
+        assert_eq!((two.offset_std, two.slope_std), (None, None));
     }
 
     #[test]

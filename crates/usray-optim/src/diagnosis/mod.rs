@@ -120,7 +120,7 @@
 //! | `held_out` | step 4's statistics: held-out seeds, losses, means and standard errors |
 //! | `spatial` | step 4's spatial standard error of an excess (blocks of the image) |
 //! | `confirmation` | step 4's second look at a borderline refit on fresh seeds ([`Confirmation`]) |
-//! | `spectral_check` | step 5's check of a centre-frequency refit against the measured echoes' spectral shift along their path ([`VerdictRule::min_spectral_z`]) |
+//! | `spectral_check` | the measured echoes' spectral shift along their path: the centre they show widens the centre frequency's range ([`VerdictRule::spectra_show_centre`]), step 5 checks a centre-frequency refit against it ([`VerdictRule::min_spectral_z`]) and, where the image names nothing, names the attenuation it shows (test 9) |
 //! | `noise_budget` | the simulation's noise against the gap ([`NoiseCheck`]) |
 //! | `verdict` | step 5 ([`name_effect`], [`unnamed_verdict`], [`VerdictRule`]) |
 //! | `results` | what a diagnosis found ([`Diagnosis`]) |
@@ -157,7 +157,8 @@ pub use options::{DiagnoseOptions, FirstRound, MeasuredChannels};
 pub use parameter_candidates::parameter_candidates;
 pub use report::Report;
 pub use results::{
-    Calibrated, Confirmation, Diagnosis, EffectResult, NullRefit, SpectralAttenuation, Timings,
+    Calibrated, Confirmation, Diagnosis, EffectResult, NullRefit, SpectralAttenuation,
+    SpectralCentre, Timings,
 };
 pub use run::{diagnose, diagnose_compound};
 pub use screening::{score_candidate, Score};

@@ -19,7 +19,7 @@ use usray_transport::{Field, ParamKey, Scene};
 /// candidate (±15%: beyond the spread of soft tissues' speeds, 1450–1640 m/s,
 /// about a nominal 1540 m/s; a probe's actual centre frequency is within
 /// ±15% of its nominal one for the arrays of PyMUST's `getparam`).
-const RELATIVE_RANGE: f64 = 0.15;
+pub(crate) const RELATIVE_RANGE: f64 = 0.15;
 
 /// The parameter candidates of `scene` whose paths are not in `calibrated`
 /// (module docs). Each has the scene's value as its null and as its first

@@ -9,7 +9,7 @@
 
 use super::refits::DETECTION_LIMIT_SPREADS;
 use super::residual::{residual_scale, GreyStats, ResidualReport};
-use super::results::{Confirmation, Diagnosis, EffectResult, SpectralAttenuation};
+use super::results::{Confirmation, Diagnosis, EffectResult, SpectralAttenuation, SpectralCentre};
 use super::verdict::{names_an_effect, TIE_MARGIN};
 use crate::mirror::impedance_mirror;
 use crate::objective::grid_shape;
@@ -112,6 +112,7 @@ impl Report<'_> {
                         "next_round_stopped": r.next_round_stopped,
                         "spectral_shift": r.spectral_shift,
                         "spectral_attenuation": r.spectral_attenuation,
+                        "spectral_centre": r.spectral_centre,
                         "effects": r.effects,
                     })
                 })
@@ -284,6 +285,9 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     }
     if let Some(named) = named_effect(d).filter(|e| e.at_range_bound()) {
         writeln!(r, "**At the bound of its range:** the refit left `{}` at {:.4e}, the edge of the range [{:.4e}, {:.4e}] it may take; the data may want a stronger effect than the range allows, so this value is a limit, not an estimate.\n", named.path, named.params[&named.path], named.range[0], named.range[1])?;
+    }
+    if let Some(sc) = &d.spectral_centre {
+        spectral_centre_paragraph(&mut r, "The echoes' centre frequency", sc)?;
     }
     if let Some(shift) = &d.spectral_shift {
         spectral_paragraph(&mut r, "The echoes' spectra", d, shift)?;
@@ -516,6 +520,11 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             writeln!(r, "\n{}{rest}.", first.to_uppercase())?;
         }
         for (i, round) in rounds.iter().enumerate().skip(1) {
+            if let Some(sc) = &round.spectral_centre {
+                writeln!(r)?;
+                let heading = format!("Round {}, the echoes' centre frequency", i + 1);
+                spectral_centre_paragraph(&mut r, &heading, sc)?;
+            }
             if let Some(shift) = &round.spectral_shift {
                 writeln!(r)?;
                 let heading = format!("Round {}, the echoes' spectra", i + 1);
@@ -576,6 +585,20 @@ fn spectral_paragraph(
         "**{heading}:** {}, {reading} (the rule: {:.0} standard errors, `usray_signal::spectral_shift`).\n",
         shift_text(shift, "the null refit's model's"),
         d.rule.min_spectral_z
+    )
+}
+
+/// The centre frequency the echoes' spectra showed and the range it gave the
+/// centre-frequency candidate ([`Diagnosis::spectral_centre`]).
+fn spectral_centre_paragraph(r: &mut String, heading: &str, sc: &SpectralCentre) -> fmt::Result {
+    writeln!(
+        r,
+        "**{heading}:** the measured echoes' spectra lie alike along their path, centred at {:.3} ± {:.3} MHz against your scene's {:.3} MHz as rendered; the centre frequency's candidate range covers ±15% about both, {:.3}–{:.3} MHz, and its screening starts from the better of the two by loss (a range bounds the search, and the spectra measure where to search; the image still decides whether it is named; `usray_signal::spectral_shift`).\n",
+        sc.centre_hz / 1e6,
+        sc.centre_std_hz / 1e6,
+        (sc.centre_hz - sc.offset_hz) / 1e6,
+        sc.range_hz[0] / 1e6,
+        sc.range_hz[1] / 1e6,
     )
 }
 

@@ -24,6 +24,23 @@ pub struct SpectralAttenuation {
     pub named: bool,
 }
 
+/// The probe's centre frequency as the measured echoes' spectra show it
+/// ([`Diagnosis::spectral_centre`]).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SpectralCentre {
+    /// The scene's centre frequency plus the measured echoes' mean offset
+    /// from the model's ([`usray_signal::SpectralShift::offset_hz`], against
+    /// the round's scene as given), Hz.
+    pub centre_hz: f64,
+    /// Its standard error, Hz.
+    pub centre_std_hz: f64,
+    /// The offset itself, measured minus model, Hz.
+    pub offset_hz: f64,
+    /// The centre-frequency candidate's range, widened to cover ±15% about
+    /// `centre_hz` as well as about the scene's value, Hz.
+    pub range_hz: [f64; 2],
+}
+
 /// The calibrated base model.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Calibrated {
@@ -418,11 +435,13 @@ pub struct Timings {
     /// Step 4's second look at borderline refits on fresh seeds
     /// ([`Confirmation`]).
     pub confirmation_s: f64,
-    /// The echoes' spectra: the check of a centre-frequency refit
-    /// ([`Diagnosis::spectral_shift`]) and the attenuation they show where
-    /// the image names nothing ([`Diagnosis::spectral_attenuation`]), one
-    /// render of the model's channels each, and the held-out renders of an
-    /// attenuation they name.
+    /// The echoes' spectra: against the scene as given, once per round where
+    /// the data are channels (the centre they show,
+    /// [`Diagnosis::spectral_centre`], and the attenuation they show where
+    /// the image names nothing, [`Diagnosis::spectral_attenuation`]), and
+    /// against the null refit's model where a centre-frequency refit is
+    /// checked ([`Diagnosis::spectral_shift`]): one render of the model's
+    /// channels each, and the held-out renders of an attenuation they name.
     pub spectral_s: f64,
     /// The whole diagnosis.
     pub total_s: f64,
@@ -505,6 +524,12 @@ pub struct Diagnosis {
     /// Absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spectral_attenuation: Option<SpectralAttenuation>,
+    /// The centre frequency the measured echoes' spectra show, where the data
+    /// are channels and the shift is alike along the path
+    /// ([`super::VerdictRule::spectra_show_centre`]); the centre-frequency
+    /// candidate's range then covers it. Absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub spectral_centre: Option<SpectralCentre>,
     /// Why no further compound round followed this one where one was asked
     /// ([`super::diagnose_compound`]): the budget left could not pay for it,
     /// or it failed. Absent when the rounds ran out or nothing was named.

@@ -12,7 +12,9 @@ use super::refits::{null_refit, quarter_from_null, refit_leading, Control};
 use super::residual::{analyse_residual, ResidualOptions};
 use super::results::{Calibrated, Diagnosis, EffectResult, Timings};
 use super::screening::{screen, Screening};
-use super::spectral_check::{attenuation_from_spectra, check_centre_frequency};
+use super::spectral_check::{
+    attenuation_from_spectra, check_centre_frequency, measured_shift, widen_centre_frequency,
+};
 use super::verdict::{name_effect, unnamed_verdict, Verdict};
 use crate::spread::parameter_spread;
 use crate::OptimError;
@@ -109,9 +111,27 @@ pub fn diagnose(
         &ResidualOptions::default(),
     )?;
 
+    // The measured echoes' spectra against the round's scene as given, where
+    // the data are channels: the centre frequency they show widens its
+    // candidate's range, and test 9 reads the attenuation they show.
+    let t = Instant::now();
+    let given_shift = if opts.measured_channels.is_some() {
+        progress("measuring the echoes' spectra against the scene along their path");
+        measured_shift(scene, &stage, opts, &mut progress)
+    } else {
+        None
+    };
+    let mut candidates = candidates(&stage.scene, &calibrated_keys);
+    let spectral_centre = widen_centre_frequency(
+        &mut candidates,
+        given_shift.as_ref(),
+        scene.probe.center_frequency_hz,
+        &opts.rule,
+    );
+    timings.spectral_s = t.elapsed().as_secs_f64();
+
     // Step 3: score every candidate by one value + gradient at its onset.
     let t = Instant::now();
-    let candidates = candidates(&stage.scene, &calibrated_keys);
     let Screening {
         mut effects,
         starts,
@@ -182,7 +202,7 @@ pub fn diagnose(
         noise_check.passed,
         &mut progress,
     );
-    timings.spectral_s = t.elapsed().as_secs_f64();
+    timings.spectral_s += t.elapsed().as_secs_f64();
 
     // Step 5: verdict.
     let refitted: Vec<EffectResult> = refits
@@ -210,6 +230,7 @@ pub fn diagnose(
             let t = Instant::now();
             let (shown, from_spectra) = attenuation_from_spectra(
                 scene,
+                given_shift.as_ref(),
                 &candidates,
                 &mut effects,
                 &stage,
@@ -285,6 +306,7 @@ pub fn diagnose(
         timings,
         spectral_shift,
         spectral_attenuation,
+        spectral_centre,
         next_round_stopped: None,
         residual,
         calibrated_image: stage.eval.image.data,

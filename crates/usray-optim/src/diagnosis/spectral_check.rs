@@ -1,18 +1,22 @@
 //! Step 5 and the echoes' spectra: do the measured echoes' spectra shift
 //! alike along every path, as a centre frequency shifts them, or the more the
 //! longer the path, as an attenuation does ([`super::VerdictRule::min_spectral_z`])?
-//! Two uses: a centre-frequency refit is checked against them
-//! ([`check_centre_frequency`]), and where the image names nothing they may
-//! name the medium's attenuation ([`attenuation_from_spectra`]).
+//! Three uses: the centre-frequency candidate's range covers the centre they
+//! show ([`widen_centre_frequency`]), a centre-frequency refit is checked
+//! against them ([`check_centre_frequency`]), and where the image names
+//! nothing they may name the medium's attenuation
+//! ([`attenuation_from_spectra`]).
 
 use super::calibration::Stage;
 use super::catalogue::Candidate;
 use super::held_out::held_out;
 use super::options::DiagnoseOptions;
+use super::parameter_candidates::RELATIVE_RANGE;
 use super::refits::{image_on_fit_seed, record_held_out, Refitted};
-use super::results::{EffectResult, SpectralAttenuation};
+use super::results::{EffectResult, SpectralAttenuation, SpectralCentre};
 use super::spatial::{block_px, held_out_losses, HeldOutLosses};
 use super::verdict::qualifies;
+use super::verdict::VerdictRule;
 use crate::OptimError;
 use usray_signal::{spectral_shift, SpectralShift, SpectralShiftOptions};
 use usray_transport::Scene;
@@ -58,7 +62,7 @@ pub(crate) fn check_centre_frequency(
 /// the stage's seed and rays; `None`, reported through `progress`, where the
 /// data are not channels, the render fails or the shift cannot be measured
 /// (too few echoes).
-fn measured_shift(
+pub(crate) fn measured_shift(
     scene: &Scene,
     stage: &Stage,
     opts: &DiagnoseOptions,
@@ -85,6 +89,47 @@ fn measured_shift(
     .ok()
 }
 
+/// Where the echoes' spectra against the round's scene as given, `shift`,
+/// show a centre frequency other than the scene's `f_c`
+/// ([`VerdictRule::spectra_show_centre`]), widens the centre-frequency
+/// candidate among `candidates` (if any) to cover ±15% about that centre,
+/// `f_c` plus the shift's offset, as well as about `f_c`, and adds that
+/// centre to its onsets: the range bounds the search about a plausible value,
+/// the screening starts it from the best of its onsets by loss, and the
+/// echoes' spectra measure one. Returns what it did; `None` where the
+/// spectra show no other centre or no centre frequency is a candidate.
+///
+/// The range only widens, and the null stays the scene's value: the image
+/// still decides whether the centre frequency is named.
+pub(crate) fn widen_centre_frequency(
+    candidates: &mut [Candidate],
+    shift: Option<&SpectralShift>,
+    f_c: f64,
+    rule: &VerdictRule,
+) -> Option<SpectralCentre> {
+    let shift = shift.filter(|s| rule.spectra_show_centre(s))?;
+    let c = candidates
+        .iter_mut()
+        .find(|c| c.key.to_string() == CENTER_FREQUENCY)?;
+    let centre_hz = f_c + shift.offset_hz;
+    if centre_hz <= 0.0 {
+        return None;
+    }
+    c.range = (
+        c.range.0.min((1.0 - RELATIVE_RANGE) * centre_hz),
+        c.range.1.max((1.0 + RELATIVE_RANGE) * centre_hz),
+    );
+    if !c.onsets.contains(&centre_hz) {
+        c.onsets.push(centre_hz);
+    }
+    Some(SpectralCentre {
+        centre_hz,
+        centre_std_hz: shift.offset_std.unwrap_or(f64::NAN),
+        offset_hz: shift.offset_hz,
+        range_hz: [c.range.0, c.range.1],
+    })
+}
+
 /// An attenuation the echoes' spectra named: its candidate, and the control's
 /// scene with it switched on and that scene's image on the stage's seed.
 pub(crate) struct NamedFromSpectra {
@@ -97,10 +142,11 @@ pub(crate) struct NamedFromSpectra {
 }
 
 /// Verdict test 9, where the image names no effect and the measured data are
-/// channels: the spectral shift of the measured echoes against `scene`, the
-/// round's scene as given (before its calibration, whose parameters, fitted
-/// to the image, may stand in for an attenuation's darkening and change the
-/// echoes' spectra with it), rendered at the stage's seed and rays. Where it
+/// channels: `shift`, the spectral shift of the measured echoes against
+/// `scene`, the round's scene as given (before its calibration, whose
+/// parameters, fitted to the image, may stand in for an attenuation's
+/// darkening and change the echoes' spectra with it), rendered at the
+/// stage's seed and rays ([`measured_shift`]). Where it
 /// shows an attenuation beyond the scene's
 /// ([`super::VerdictRule::spectra_show_attenuation`]) and the medium's
 /// attenuation is a candidate, that attenuation is named at the scene's
@@ -114,6 +160,7 @@ pub(crate) struct NamedFromSpectra {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn attenuation_from_spectra(
     scene: &Scene,
+    shift: Option<&SpectralShift>,
     candidates: &[Candidate],
     effects: &mut [EffectResult],
     stage: &Stage,
@@ -130,14 +177,10 @@ pub(crate) fn attenuation_from_spectra(
     else {
         return (None, None);
     };
-    if opts.measured_channels.is_none() {
-        return (None, None);
-    }
-    progress("measuring the attenuation the echoes' spectra show along their path");
-    let Some(shift) = measured_shift(scene, stage, opts, progress) else {
+    let Some(shift) = shift else {
         return (None, None);
     };
-    let shows = opts.rule.spectra_show_attenuation(&shift);
+    let shows = opts.rule.spectra_show_attenuation(shift);
     let record = |named: bool| {
         Some(SpectralAttenuation {
             shift: shift.clone(),

@@ -179,7 +179,7 @@ impl VerdictRule {
     /// use usray_optim::VerdictRule;
     /// use usray_signal::SpectralShift;
     /// let shift = |alpha: f64, se: f64| SpectralShift {
-    ///     echoes: vec![], offset_hz: -0.07e6, slope_hz_per_m: 0.0, slope_std: None,
+    ///     echoes: vec![], offset_hz: -0.07e6, offset_std: None, slope_hz_per_m: 0.0, slope_std: None,
     ///     spectral_variance_hz2: 0.25e12, attenuation_db_cm_mhz: alpha,
     ///     attenuation_std: Some(se),
     /// };
@@ -194,6 +194,39 @@ impl VerdictRule {
             && shift
                 .attenuation_z()
                 .is_some_and(|z| z >= self.min_spectral_z)
+    }
+
+    /// Whether the measured echoes' spectral shift against a model, `shift`,
+    /// shows a centre frequency other than the model's: an offset of at least
+    /// [`VerdictRule::min_spectral_z`] standard errors, alike along the path
+    /// (the attenuation it reads within that many standard errors of none;
+    /// a shift that grows with the path is an attenuation's, or a
+    /// structure's). Where it holds, the centre-frequency candidate's range
+    /// also covers ±15% about the centre the spectra show (docs/diagnosis.md,
+    /// "The centre frequency's range").
+    ///
+    /// ```
+    /// use usray_optim::VerdictRule;
+    /// use usray_signal::SpectralShift;
+    /// let shift = |offset: f64, alpha_z: f64| SpectralShift {
+    ///     echoes: vec![], offset_hz: offset, offset_std: Some(0.01e6), slope_hz_per_m: 0.0,
+    ///     slope_std: None, spectral_variance_hz2: 0.25e12,
+    ///     attenuation_db_cm_mhz: 0.01 * alpha_z, attenuation_std: Some(0.01),
+    /// };
+    /// let rule = VerdictRule::default();
+    /// assert!(rule.spectra_show_centre(&shift(-0.3e6, 0.0)));
+    /// assert!(!rule.spectra_show_centre(&shift(-0.02e6, 0.0))); // 2 standard errors
+    /// assert!(!rule.spectra_show_centre(&shift(-0.3e6, 5.0))); // growing with the path
+    /// ```
+    #[must_use]
+    pub fn spectra_show_centre(&self, shift: &usray_signal::SpectralShift) -> bool {
+        let offset = shift
+            .offset_z()
+            .is_some_and(|z| z.abs() >= self.min_spectral_z);
+        let alike = shift
+            .attenuation_z()
+            .is_some_and(|z| z.abs() < self.min_spectral_z);
+        offset && alike
     }
 
     /// Whether `e`'s first look is borderline: spread over the image, but
