@@ -238,6 +238,23 @@ fn tier_a_compound_speckle_and_pulse_names_the_speckle_first() {
 /// declare, as `usray diagnose` does; with its channels beside the image
 /// where `with_channels` (as `usray diagnose` passes a channel-data file).
 fn diagnose_kwave_g1(case: &str, with_channels: bool, iters: usize) -> Diagnosis {
+    let opts = DiagnoseOptions {
+        calibration_iters: iters,
+        refit_iters: iters,
+        confirm_top: 1,
+        render: RenderOptions {
+            rays_per_element: Some(12),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    diagnose_kwave_g1_with(case, with_channels, opts)
+}
+
+/// k-Wave's `case` of the ring g1 diagnosed against `bench/kwave/g1.toml`
+/// with `opts` (its measured channels set here where `with_channels`),
+/// traced in 2-D as the data declare.
+fn diagnose_kwave_g1_with(case: &str, with_channels: bool, opts: DiagnoseOptions) -> Diagnosis {
     let mut base = Scene::load("bench/kwave/g1.toml").unwrap();
     let data = format!("bench/kwave/data/{case}.json");
     let data = Path::new(&data);
@@ -254,15 +271,8 @@ fn diagnose_kwave_g1(case: &str, with_channels: bool, iters: usize) -> Diagnosis
         .lock()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
     let opts = DiagnoseOptions {
-        calibration_iters: iters,
-        refit_iters: iters,
-        confirm_top: 1,
-        render: RenderOptions {
-            rays_per_element: Some(12),
-            ..Default::default()
-        },
         measured_channels,
-        ..Default::default()
+        ..opts
     };
     diagnose(&base, &measured, &opts, |_| {}).unwrap()
 }
@@ -304,6 +314,58 @@ fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
 /// docs/diagnosis.md), and the echoes' spectra, against the scene as given,
 /// name the medium's attenuation (verdict test 9) near its true value. At
 /// full size (20 rays, 40 iterations): 0.499 ± 0.004 dB/(cm·MHz).
+/// k-Wave's ring g1 sent with a 2.2 MHz burst, its data and scene declaring
+/// 2.5 MHz: the echoes' spectra show a centre near 2.2 MHz alike along their
+/// path, which widens the centre frequency's range below the nominal ±15%
+/// (whose bound, 2.125 MHz, held the refit before, and the verdict was
+/// `none`), and `center_frequency` is named inside it. At the diagnosis's own
+/// size (20 rays, the default iterations and three refits; with `--budget
+/// 180`, build 4a1f0e3: 2.152 MHz, excess 0.147 ± 0.003). Not at CI size: with
+/// 12 rays and one refit the wall's thickness outranks the centre frequency,
+/// is refitted alone, ends within its tolerance, and the verdict is `none`;
+/// `tests/spectral_shift.rs` asserts the spectra's centre at CI cost.
+#[test]
+#[ignore = "diagnostic: one full-size k-Wave diagnosis, about 2 minutes"]
+fn tier_b_kwave_ring_centre_frequency_is_named_inside_the_range_its_spectra_give() {
+    let d = diagnose_kwave_g1_with(
+        "g1_freq",
+        true,
+        DiagnoseOptions {
+            render: RenderOptions {
+                rays_per_element: Some(20),
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+    );
+    let sc = d
+        .spectral_centre
+        .as_ref()
+        .expect("the spectra show a centre");
+    eprintln!(
+        "k-Wave g1_freq: verdict {}, spectral centre {:?}",
+        d.verdict.effect, sc
+    );
+    for e in d.effects.iter().filter(|e| e.excess.is_some()) {
+        eprintln!(
+            "  {} {:?} excess {:?} ± {:?} (± {:?}) range {:?}",
+            e.effect,
+            e.params.get(&e.path),
+            e.excess,
+            e.excess_std,
+            e.excess_spatial_std,
+            e.range
+        );
+    }
+    // k-Wave's grid lowers the echoes 2.4-5% ("Known limits"): within 0.15 MHz.
+    assert!((sc.centre_hz - 2.2e6).abs() < 0.15e6, "{sc:?}");
+    assert!(sc.range_hz[0] < 0.85 * 2.5e6, "{sc:?}");
+    assert_eq!(d.verdict.effect, "center_frequency");
+    let f = named_value(&d, "probe.center_frequency_hz");
+    assert!(f > sc.range_hz[0] && f < sc.range_hz[1], "{f} in {sc:?}");
+    assert!((f - 2.2e6).abs() < 0.15e6, "{f}");
+}
+
 #[test]
 fn tier_b_kwave_ring_attenuation_is_named_from_the_echoes_spectra() {
     let d = diagnose_kwave_g1("g1_atten", true, 12);

@@ -66,8 +66,9 @@ fn run(args: Vec<String>) -> Result<(), String> {
     }
     let se = |s: Option<f64>| s.map_or("(no standard error)".to_string(), |s| format!("± {s:.3}"));
     println!(
-        "offset {:+.4} MHz; slope {:+.4} MHz per cm of path; attenuation beyond the model's {:+.3} {} dB/(cm·MHz){}",
+        "offset {:+.4} {} MHz; slope {:+.4} MHz per cm of path; attenuation beyond the model's {:+.3} {} dB/(cm·MHz){}",
         shift.offset_hz * 1e-6,
+        se(shift.offset_std.map(|s| s * 1e-6)),
         shift.slope_hz_per_m * 1e-8,
         shift.attenuation_db_cm_mhz,
         se(shift.attenuation_std),

@@ -288,6 +288,9 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     }
     if let Some(sc) = &d.spectral_centre {
         spectral_centre_paragraph(&mut r, "The echoes' centre frequency", sc)?;
+        if named_effect(d).is_some_and(|e| e.effect == "element_width") {
+            writeln!(r, "**An element width, or a centre frequency?** Both change how wide the element hears (its directivity goes as `w·f`, Szabo eq. 6.16), and the image barely tells one from the other; the echoes' spectra, which an element's width barely moves, show a centre of {:.3} MHz against your scene's {:.3}. If your probe's centre frequency is not known, measure it (or set it to that centre) and diagnose again.\n", sc.centre_hz / 1e6, (sc.centre_hz - sc.offset_hz) / 1e6)?;
+        }
     }
     if let Some(shift) = &d.spectral_shift {
         spectral_paragraph(&mut r, "The echoes' spectra", d, shift)?;

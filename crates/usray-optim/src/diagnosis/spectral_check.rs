@@ -233,3 +233,61 @@ fn switched_on_held_out(
     let image_s = image_on_fit_seed(&on, measured, stage)?;
     Ok((after, image_s, on))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::parameter_candidates;
+
+    /// A shift of `offset_hz` (± 10 kHz) whose attenuation is `alpha_z` of its
+    /// standard errors.
+    fn shift(offset_hz: f64, alpha_z: f64) -> SpectralShift {
+        SpectralShift {
+            echoes: vec![],
+            offset_hz,
+            offset_std: Some(0.01e6),
+            slope_hz_per_m: 0.0,
+            slope_std: None,
+            spectral_variance_hz2: 1e12,
+            attenuation_db_cm_mhz: 0.01 * alpha_z,
+            attenuation_std: Some(0.01),
+        }
+    }
+
+    #[test]
+    fn the_centre_frequency_s_range_covers_the_centre_the_spectra_show() {
+        let scene = Scene::load("../../scenes/ring.toml").unwrap();
+        let f_c = scene.probe.center_frequency_hz;
+        let rule = VerdictRule::default();
+        let cf = |c: &[Candidate]| {
+            c.iter()
+                .find(|c| c.key.to_string() == CENTER_FREQUENCY)
+                .unwrap()
+                .clone()
+        };
+        let nominal = cf(&parameter_candidates(&scene, &[]));
+        assert_eq!(nominal.range, (0.85 * f_c, 1.15 * f_c));
+
+        // Echoes 1 MHz low alike along the path: the range reaches ±15%
+        // about the centre shown, which joins the onsets; the null and the
+        // upper bound stay the scene's.
+        let mut c = parameter_candidates(&scene, &[]);
+        let shown = widen_centre_frequency(&mut c, Some(&shift(-1e6, 0.0)), f_c, &rule).unwrap();
+        let widened = cf(&c);
+        assert_eq!(shown.centre_hz, f_c - 1e6);
+        assert_eq!(widened.range, (0.85 * (f_c - 1e6), 1.15 * f_c));
+        assert_eq!(shown.range_hz, [widened.range.0, widened.range.1]);
+        assert_eq!(widened.onsets, [f_c, f_c - 1e6]);
+        assert_eq!(widened.null, Some(f_c));
+
+        // Not where the shift grows with the path (an attenuation's), nor
+        // where the offset is within 3 standard errors, nor without a shift:
+        // the candidate is untouched.
+        for s in [Some(shift(-1e6, 5.0)), Some(shift(-0.02e6, 0.0)), None] {
+            let mut c = parameter_candidates(&scene, &[]);
+            assert!(widen_centre_frequency(&mut c, s.as_ref(), f_c, &rule).is_none());
+            assert_eq!(cf(&c).range, nominal.range);
+            assert_eq!(cf(&c).onsets, nominal.onsets);
+        }
+    }
+}
