@@ -309,11 +309,6 @@ fn tier_b_kwave_ring_with_a_thicker_wall_names_wall_thickness() {
     );
 }
 
-/// k-Wave's ring g1 with 0.5 dB/(cm·MHz) in water and wall: the image names
-/// no effect (the calibrated wall's impedance stands in for the darkening,
-/// docs/diagnosis.md), and the echoes' spectra, against the scene as given,
-/// name the medium's attenuation (verdict test 9) near its true value. At
-/// full size (20 rays, 40 iterations): 0.499 ± 0.004 dB/(cm·MHz).
 /// k-Wave's ring g1 sent with a 2.2 MHz burst, its data and scene declaring
 /// 2.5 MHz: the echoes' spectra show a centre near 2.2 MHz alike along their
 /// path, which widens the centre frequency's range below the nominal ±15%
@@ -346,17 +341,6 @@ fn tier_b_kwave_ring_centre_frequency_is_named_inside_the_range_its_spectra_give
         "k-Wave g1_freq: verdict {}, spectral centre {:?}",
         d.verdict.effect, sc
     );
-    for e in d.effects.iter().filter(|e| e.excess.is_some()) {
-        eprintln!(
-            "  {} {:?} excess {:?} ± {:?} (± {:?}) range {:?}",
-            e.effect,
-            e.params.get(&e.path),
-            e.excess,
-            e.excess_std,
-            e.excess_spatial_std,
-            e.range
-        );
-    }
     // k-Wave's grid lowers the echoes 2.4-5% ("Known limits"): within 0.15 MHz.
     assert!((sc.centre_hz - 2.2e6).abs() < 0.15e6, "{sc:?}");
     assert!(sc.range_hz[0] < 0.85 * 2.5e6, "{sc:?}");
@@ -366,6 +350,11 @@ fn tier_b_kwave_ring_centre_frequency_is_named_inside_the_range_its_spectra_give
     assert!((f - 2.2e6).abs() < 0.15e6, "{f}");
 }
 
+/// k-Wave's ring g1 with 0.5 dB/(cm·MHz) in water and wall: the image names
+/// no effect (the calibrated wall's impedance stands in for the darkening,
+/// docs/diagnosis.md), and the echoes' spectra, against the scene as given,
+/// name the medium's attenuation (verdict test 9) near its true value. At
+/// full size (20 rays, 40 iterations): 0.499 ± 0.004 dB/(cm·MHz).
 #[test]
 fn tier_b_kwave_ring_attenuation_is_named_from_the_echoes_spectra() {
     let d = diagnose_kwave_g1("g1_atten", true, 12);

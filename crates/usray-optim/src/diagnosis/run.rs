@@ -220,13 +220,14 @@ pub fn diagnose(
     });
     // The effect the image names; where it names nothing, the attenuation
     // the echoes' spectra show against the scene as given (test 9).
+    let unnamed = unnamed_verdict(&refitted, &opts.rule, noise_check.passed);
     let mut spectral_attenuation = None;
     let named = match named {
         Some((i, alternatives)) => {
             let r = refits.swap_remove(i);
             Some((r.candidate, alternatives, r.image_s, r.scene))
         }
-        None if unnamed_verdict(&refitted, &opts.rule, noise_check.passed) == "none" => {
+        None if unnamed == "none" => {
             let t = Instant::now();
             let (shown, from_spectra) = attenuation_from_spectra(
                 scene,
@@ -263,7 +264,7 @@ pub fn diagnose(
         }
         None => (
             Verdict {
-                effect: unnamed_verdict(&refitted, &opts.rule, noise_check.passed).into(),
+                effect: unnamed.into(),
                 path: None,
                 shrink: 0.0,
                 alternatives: vec![],

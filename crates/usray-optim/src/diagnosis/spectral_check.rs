@@ -18,7 +18,7 @@ use super::spatial::{block_px, held_out_losses, HeldOutLosses};
 use super::verdict::{qualifies, VerdictRule};
 use crate::OptimError;
 use usray_signal::{spectral_shift, SpectralShift, SpectralShiftOptions};
-use usray_transport::Scene;
+use usray_transport::{Field, ParamKey, Scene};
 
 /// The path of the probe's centre frequency, the one candidate checked.
 const CENTER_FREQUENCY: &str = "probe.center_frequency_hz";
@@ -107,9 +107,8 @@ pub(crate) fn widen_centre_frequency(
     rule: &VerdictRule,
 ) -> Option<SpectralCentre> {
     let shift = shift.filter(|s| rule.spectra_show_centre(s))?;
-    let c = candidates
-        .iter_mut()
-        .find(|c| c.key.to_string() == CENTER_FREQUENCY)?;
+    let key = ParamKey::probe(Field::CenterFrequency);
+    let c = candidates.iter_mut().find(|c| c.key == key)?;
     let centre_hz = f_c + shift.offset_hz;
     if centre_hz <= 0.0 {
         return None;
