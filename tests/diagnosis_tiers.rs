@@ -16,6 +16,7 @@ use usray::optim::blind::{measured_image, BlindOptions, Draw};
 use usray::optim::{
     catalogue, diagnose, diagnosis_bounces, follow_declared_dimensions, load_reference,
     mean_and_se, names_an_effect, DiagnoseOptions, Diagnosis, MeasuredChannels, Objective,
+    VerdictRule,
 };
 use usray::transport::scene::Sampler;
 use usray::transport::{RenderOptions, Scene};
@@ -187,6 +188,26 @@ fn tier_a_tube_with_a_thicker_wall_names_wall_thickness() {
         (found - 1.6e-3).abs() < (0.8e-3f64 - 1.6e-3).abs() / 2.0,
         "wall found {found:.3e} m for 1.6e-3"
     );
+    // Verdict test 9: the named wall was rendered again with the control at
+    // four times the rays, and its gain holds without the simulation's noise.
+    let wall = d
+        .effects
+        .iter()
+        .find(|e| e.effect == "wall_thickness")
+        .unwrap();
+    let m = wall.more_rays.as_ref().expect("looked at with more rays");
+    eprintln!(
+        "wall: {:+.4} at {MODEL_RAYS} rays, {:+.4} at {}, without noise {:+.4} ± {:?} (p {:.2})",
+        wall.excess.unwrap(),
+        m.excess,
+        m.rays,
+        m.noise_free_excess,
+        m.noise_free_std,
+        m.noise_exponent
+    );
+    assert_eq!(m.rays, 4 * MODEL_RAYS);
+    assert!((0.25..=1.5).contains(&m.noise_exponent));
+    assert!(VerdictRule::default().holds_without_noise(Some(m)));
 }
 
 /// A sphere with no effect: the verdict must not name one (`none` where the
@@ -353,7 +374,7 @@ fn tier_b_kwave_ring_centre_frequency_is_named_inside_the_range_its_spectra_give
 /// k-Wave's ring g1 with 0.5 dB/(cm·MHz) in water and wall: the image names
 /// no effect (the calibrated wall's impedance stands in for the darkening,
 /// docs/diagnosis.md), and the echoes' spectra, against the scene as given,
-/// name the medium's attenuation (verdict test 9) near its true value. At
+/// name the medium's attenuation (verdict test 10) near its true value. At
 /// full size (20 rays, 40 iterations): 0.499 ± 0.004 dB/(cm·MHz).
 #[test]
 fn tier_b_kwave_ring_attenuation_is_named_from_the_echoes_spectra() {

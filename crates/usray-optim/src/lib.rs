@@ -58,7 +58,7 @@ pub use diagnosis::{
     names_an_effect, noise_exponent, parameter_candidates, rays_needed, score_candidate,
     simulation_noise_share, sound_speed_tolerance, unnamed_verdict, wall_thickness_tolerance,
     Calibrated, Candidate, Confirmation, DiagnoseOptions, Diagnosis, EffectResult, FirstRound,
-    FreeParam, LossSetup, MeasuredChannels, NoiseCheck, NullRefit, Report, Score,
+    FreeParam, LossSetup, MeasuredChannels, MoreRays, NoiseCheck, NullRefit, Report, Score,
     SpectralAttenuation, SpectralCentre, Timings, Verdict, VerdictRule,
 };
 pub use fd::{best_fd, fd_sweep, fd_sweeps, log_steps, sweep_steps, FdPoint};

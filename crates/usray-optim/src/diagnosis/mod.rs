@@ -64,6 +64,11 @@
 //!    is rendered with the control again on
 //!    [`DiagnoseOptions::confirmation_seeds`] fresh seeds, within the budget,
 //!    and the seeds' test is decided on those alone.
+//!    **A look at more rays** ([`MoreRays`]): every refit that would be
+//!    named, and the control, rendered again on the held-out seeds at four
+//!    times the rays; its excess extrapolated to a noise-free simulation must
+//!    stay significant ([`VerdictRule::holds_without_noise`]): a candidate
+//!    that only darkens the simulation's own clutter gains less the more rays.
 //! 5. **Verdict** ([`name_effect`], [`unnamed_verdict`]): a refitted effect
 //!    qualifies when its excess over the null refit is at least
 //!    [`VerdictRule::min_excess_z`] of its standard errors over the held-out
@@ -120,7 +125,8 @@
 //! | `held_out` | step 4's statistics: held-out seeds, losses, means and standard errors |
 //! | `spatial` | step 4's spatial standard error of an excess (blocks of the image) |
 //! | `confirmation` | step 4's second look at a borderline refit on fresh seeds ([`Confirmation`]) |
-//! | `spectral_check` | the measured echoes' spectral shift along their path: the centre they show widens the centre frequency's range ([`VerdictRule::spectra_show_centre`]), step 5 checks a centre-frequency refit against it ([`VerdictRule::min_spectral_z`]) and, where the image names nothing, names the attenuation it shows (test 9) |
+//! | `more_rays` | step 4's look at more rays at every refit that would be named ([`MoreRays`]) |
+//! | `spectral_check` | the measured echoes' spectral shift along their path: the centre they show widens the centre frequency's range ([`VerdictRule::spectra_show_centre`]), step 5 checks a centre-frequency refit against it ([`VerdictRule::min_spectral_z`]) and, where the image names nothing, names the attenuation it shows (test 10) |
 //! | `noise_budget` | the simulation's noise against the gap ([`NoiseCheck`]) |
 //! | `verdict` | step 5 ([`name_effect`], [`unnamed_verdict`], [`VerdictRule`]) |
 //! | `results` | what a diagnosis found ([`Diagnosis`]) |
@@ -131,6 +137,7 @@ mod calibration;
 mod catalogue;
 mod confirmation;
 mod held_out;
+mod more_rays;
 mod noise_budget;
 mod options;
 mod parameter_candidates;
@@ -157,7 +164,7 @@ pub use options::{DiagnoseOptions, FirstRound, MeasuredChannels};
 pub use parameter_candidates::parameter_candidates;
 pub use report::Report;
 pub use results::{
-    Calibrated, Confirmation, Diagnosis, EffectResult, NullRefit, SpectralAttenuation,
+    Calibrated, Confirmation, Diagnosis, EffectResult, MoreRays, NullRefit, SpectralAttenuation,
     SpectralCentre, Timings,
 };
 pub use run::{diagnose, diagnose_compound};

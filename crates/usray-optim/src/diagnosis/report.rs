@@ -105,6 +105,7 @@ impl Report<'_> {
                         "excess_std": named.and_then(|e| e.excess_std),
                         "excess_spatial_std": named.and_then(|e| e.excess_spatial_std),
                         "confirmation": named.and_then(|e| e.confirmation.clone()),
+                        "more_rays": named.and_then(|e| e.more_rays.clone()),
                         "found": named.and_then(|e| e.params.get(&e.path)),
                         "noise_check": r.noise_check,
                         "loss_held_out": r.calibrated.loss_held_out,
@@ -283,6 +284,16 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
             writeln!(r, "**Measured again on fresh seeds:** `{}`'s gain over the null refit, {} ({} standard errors over the {} held-out seeds, between {:.0} and {:.0}: borderline), was rendered again with the control on {seeds} seeds none of the above used: {excess:+.3}{}{z}, {outcome}. The seeds' test is decided on those alone, so the second look does not raise the chance of naming an effect by chance.\n", e.effect, excess_text(e), first_look_z(e), e.held_out_losses.len(), d.rule.borderline_z, d.rule.min_excess_z, plus_minus(excess_std))?;
         }
     }
+    for e in &d.effects {
+        if let Some(m) = &e.more_rays {
+            let outcome = if d.rule.holds_without_noise(Some(m)) {
+                "it holds without the noise"
+            } else {
+                "**it does not hold without the noise, so it is not named**: the candidate darkened the simulation's own Monte Carlo clutter rather than explained the data"
+            };
+            writeln!(r, "**At four times the rays:** `{}`'s gain over the null refit, {} at the first look, is {:+.3}{} with both rendered again at {} rays on the held-out seeds. The simulation's noise falls as rays^−{:.2} (the noise levels at both counts), and so does any gain that is only the noise's; extrapolated to no noise the gain is {:+.3}{}: {outcome}.\n", e.effect, excess_text(e), m.excess, plus_minus(m.excess_std), m.rays, m.noise_exponent, m.noise_free_excess, plus_minus(m.noise_free_std))?;
+        }
+    }
     if let Some(named) = named_effect(d).filter(|e| e.at_range_bound()) {
         writeln!(r, "**At the bound of its range:** the refit left `{}` at {:.4e}, the edge of the range [{:.4e}, {:.4e}] it may take; the data may want a stronger effect than the range allows, so this value is a limit, not an estimate.\n", named.path, named.params[&named.path], named.range[0], named.range[1])?;
     }
@@ -437,7 +448,17 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
                         format!("; borderline, not measured on {seeds} fresh seeds (budget)")
                     }
                     None => String::new(),
-                },
+                }
+                + &e.more_rays.as_ref().map_or(String::new(), |m| {
+                    format!(
+                        "; at {} rays {:+.3}{}, without noise {:+.3}{}",
+                        m.rays,
+                        m.excess,
+                        plus_minus(m.excess_std),
+                        m.noise_free_excess,
+                        plus_minus(m.noise_free_std)
+                    )
+                }),
             or_dash(e.gap_explained, |g| format!("{g:.2}")),
             match (e.detection_limit, e.null) {
                 (Some(l), Some(null)) if e.range[0] < null => format!("±{}", short(l)),

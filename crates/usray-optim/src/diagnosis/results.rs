@@ -190,6 +190,86 @@ pub struct EffectResult {
     /// [`super::VerdictRule::min_spectral_z`]). Absent for every other
     /// candidate and without measured channel data.
     pub spectral_z: Option<f64>,
+    /// For a refit that would otherwise be named: it and the control rendered
+    /// again at more rays, and its excess extrapolated to a simulation
+    /// without Monte Carlo noise ([`super::VerdictRule::holds_without_noise`]);
+    /// absent for every other refit.
+    pub more_rays: Option<MoreRays>,
+}
+
+/// A refit that would be named, and the control, rendered again on the
+/// held-out seeds at [`MoreRays::rays`] (four times the first look's), and
+/// the excess both looks give extrapolated to infinitely many rays.
+///
+/// Why: the held-out loss of a model rendered with `r` rays is, in
+/// expectation, the loss of its noise-free image plus a Monte Carlo term
+/// that falls as `r^(−p)`, as the noise level does (`p = 1` for the loss's
+/// ℓ2 term, whose expectation adds the image's variance, `∝ 1/r`; `p = ½`
+/// for its ℓ1 term; [`crate::noise_exponent`]). A candidate that darkens the
+/// simulation's own noise (its clutter) gains in that term alone: on every
+/// seed and in every block, yet less at more rays, and nothing without
+/// noise. With the excess `e₁` at `r` rays and `e₂` at `4r`,
+/// `e(r) = g + v·r^(−p)` gives the noise-free excess
+/// `g = (4^p e₂ − e₁) / (4^p − 1)`, with standard error
+/// `√(4^(2p) s₂² + s₁²) / (4^p − 1)` (the two looks' renders taken as
+/// independent). `p` is measured from the control's noise level at the two
+/// ray counts ([`MoreRays::noise_exponent`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MoreRays {
+    /// Rays per element of these renders.
+    pub rays: usize,
+    /// The excess over the control at those rays, in units of the
+    /// calibrated held-out loss, as [`EffectResult::excess`].
+    pub excess: f64,
+    /// Its standard error over the seeds (absent with one seed).
+    pub excess_std: Option<f64>,
+    /// The exponent `p` of the Monte Carlo term's `r^(−p)`: from the noise
+    /// levels of the calibrated model at the first look's rays and of the
+    /// control at these ([`crate::noise_exponent`], kept within
+    /// [¼, 1.5]), or ¾ where they could not be measured (the paired loss).
+    pub noise_exponent: f64,
+    /// The excess extrapolated to infinitely many rays, `g`.
+    pub noise_free_excess: f64,
+    /// Its standard error (absent where either look's is).
+    pub noise_free_std: Option<f64>,
+    /// Wall time of these renders, seconds.
+    pub seconds: f64,
+}
+
+impl MoreRays {
+    /// The noise-free excess and its standard error from a first look's
+    /// `excess ± excess_std` at `rays` and a second's `more ± more_std` at
+    /// `more_rays` rays, the Monte Carlo term falling as `r^(−p)`
+    /// ([`MoreRays`]: `e(r) = g + v·r^(−p)`).
+    ///
+    /// ```
+    /// use usray_optim::MoreRays;
+    /// // A gain that is all Monte Carlo term (p = 1) falls 4× at 4× the rays: nothing is left.
+    /// let (g, se) = MoreRays::extrapolate((0.028, Some(0.006)), 20, (0.007, Some(0.003)), 80, 1.0);
+    /// assert!(g.abs() < 1e-12);
+    /// assert!((se.unwrap() - (16.0f64 * 0.003 * 0.003 + 0.006 * 0.006).sqrt() / 3.0).abs() < 1e-15);
+    /// // With p = ½ it falls 2×.
+    /// let (g, _) = MoreRays::extrapolate((0.028, None), 20, (0.014, None), 80, 0.5);
+    /// assert!(g.abs() < 1e-12);
+    /// // A gain of the data's own stays what it was, whatever p.
+    /// let (g, _) = MoreRays::extrapolate((0.3, Some(0.01)), 20, (0.3, Some(0.005)), 80, 0.75);
+    /// assert!((g - 0.3).abs() < 1e-12);
+    /// ```
+    #[must_use]
+    pub fn extrapolate(
+        (excess, excess_std): (f64, Option<f64>),
+        rays: usize,
+        (more, more_std): (f64, Option<f64>),
+        more_rays: usize,
+        p: f64,
+    ) -> (f64, Option<f64>) {
+        let k = (more_rays as f64 / rays as f64).powf(p);
+        let g = (k * more - excess) / (k - 1.0);
+        let se = excess_std
+            .zip(more_std)
+            .map(|(s1, s2)| ((k * s2).powi(2) + s1 * s1).sqrt() / (k - 1.0));
+        (g, se)
+    }
 }
 
 /// A borderline refit measured again on fresh held-out seeds: one that passes
@@ -254,7 +334,7 @@ impl EffectResult {
     ///     shrink_std: Some(0.01), excess: Some(0.25), excess_std: Some(0.01), excess_spatial_std: None,
     ///     gap_explained: Some(0.8), held_out_losses: vec![7e-3],
     ///     params: BTreeMap::new(), params_std: BTreeMap::new(), detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None,
-    ///     failed: None, confirmation: None, spectral_z: None,
+    ///     failed: None, confirmation: None, spectral_z: None, more_rays: None,
     /// };
     /// e.params.insert(e.path.clone(), 9.999);
     /// assert!(e.at_range_bound());
@@ -317,7 +397,7 @@ impl EffectResult {
     ///     excess: Some(0.05), excess_std: None, excess_spatial_std: None, gap_explained: None,
     ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
     ///     detection_limit: None, tolerance: Some(3.9), absence_cost: None,
-    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None,
+    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None, more_rays: None,
     /// };
     /// e.params.insert("medium.sound_speed_m_s".into(), 1477.7);
     /// assert!(e.within_tolerance());
@@ -372,7 +452,7 @@ impl EffectResult {
     ///     gap_explained: None, held_out_losses: vec![],
     ///     params: BTreeMap::from([(path, 0.23e-3)]), params_std: BTreeMap::new(),
     ///     detection_limit: Some(0.055e-3), tolerance: None, absence_cost: None,
-    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None,
+    ///     absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None, more_rays: None,
     /// };
     /// assert!(e.within_detection_limit() && e.indistinct_from_null());
     /// (e.absence_cost, e.absence_cost_std) = (Some(0.002), Some(0.003));
@@ -404,7 +484,7 @@ impl EffectResult {
     ///     held_out_losses: vec![9e-3],
     ///     params: BTreeMap::from([(path.clone(), 1.5)]),
     ///     params_std: BTreeMap::from([(path, Some(0.75))]),
-    ///     detection_limit: Some(2.25), tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None,
+    ///     detection_limit: Some(2.25), tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None, more_rays: None,
     /// };
     /// // Found +1.5 dB/cm at a spread of 0.75: two spreads from no gain.
     /// assert_eq!(e.null_z(), Some(2.0));
@@ -435,6 +515,9 @@ pub struct Timings {
     /// Step 4's second look at borderline refits on fresh seeds
     /// ([`Confirmation`]).
     pub confirmation_s: f64,
+    /// Step 4's look at more rays: the refits that would be named and the
+    /// control on the held-out seeds at four times the rays ([`MoreRays`]).
+    pub more_rays_s: f64,
     /// The echoes' spectra: against the scene as given, once per round where
     /// the data are channels (the centre they show,
     /// [`Diagnosis::spectral_centre`], and the attenuation they show where

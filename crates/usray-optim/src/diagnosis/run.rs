@@ -6,6 +6,7 @@ use super::calibration::{
 };
 use super::catalogue::{catalogue, diagnosis_bounces, Candidate};
 use super::confirmation::second_looks;
+use super::more_rays::more_rays_looks;
 use super::options::{DiagnoseOptions, FirstRound};
 use super::parameter_candidates::parameter_candidates;
 use super::refits::{null_refit, quarter_from_null, refit_leading, Control};
@@ -113,7 +114,7 @@ pub fn diagnose(
 
     // The measured echoes' spectra against the round's scene as given, where
     // the data are channels: the centre frequency they show widens its
-    // candidate's range, and test 9 reads the attenuation they show.
+    // candidate's range, and test 10 reads the attenuation they show.
     let t = Instant::now();
     let given_shift = if opts.measured_channels.is_some() {
         progress("measuring the echoes' spectra against the scene along their path");
@@ -190,6 +191,19 @@ pub fn diagnose(
     )?;
     timings.confirmation_s = t.elapsed().as_secs_f64();
 
+    // Every refit that would be named, and the control, at more rays: a gain
+    // that falls with the simulation's noise is the noise's, not the data's.
+    timings.more_rays_s = more_rays_looks(
+        &refits,
+        &mut effects,
+        &stage,
+        &baseline_scene,
+        held_data,
+        opts,
+        noise_check.passed,
+        &mut progress,
+    );
+
     // A centre frequency that would be named, checked against how the
     // measured echoes' spectra shift along their path.
     let t = Instant::now();
@@ -219,7 +233,7 @@ pub fn diagnose(
         (i, alternatives)
     });
     // The effect the image names; where it names nothing, the attenuation
-    // the echoes' spectra show against the scene as given (test 9).
+    // the echoes' spectra show against the scene as given (test 10).
     let unnamed = unnamed_verdict(&refitted, &opts.rule, noise_check.passed);
     let mut spectral_attenuation = None;
     let named = match named {

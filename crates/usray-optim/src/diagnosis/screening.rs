@@ -286,6 +286,7 @@ pub(crate) fn screen(
             failed,
             confirmation: None,
             spectral_z: None,
+            more_rays: None,
         });
     }
     let mut order: Vec<usize> = (0..effects.len()).collect();

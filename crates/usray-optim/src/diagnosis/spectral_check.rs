@@ -139,7 +139,7 @@ pub(crate) struct NamedFromSpectra {
     pub scene: Scene,
 }
 
-/// Verdict test 9, where the image names no effect and the measured data are
+/// Verdict test 10, where the image names no effect and the measured data are
 /// channels: `shift`, the spectral shift of the measured echoes against
 /// `scene`, the round's scene as given (before its calibration, whose
 /// parameters, fitted to the image, may stand in for an attenuation's

@@ -74,6 +74,16 @@ pub struct VerdictRule {
     /// medium's attenuation from the spectra where the image names nothing
     /// ([`VerdictRule::spectra_show_attenuation`]).
     pub min_spectral_z: f64,
+    /// A refit is named only if its excess extrapolated to a simulation
+    /// without Monte Carlo noise ([`super::MoreRays`], from the first look
+    /// and one at four times the rays) is positive and at least this many of
+    /// its standard errors (default 2): a candidate that darkens the
+    /// simulation's own clutter gains on every seed and in every block, but
+    /// less the more rays, and nothing without noise. It is a second test
+    /// on a refit already significant at [`VerdictRule::min_excess_z`]: a
+    /// gain that is all the data's own fails it with probability 2.3% (one
+    /// side of a normal at 2).
+    pub min_noise_free_z: f64,
 }
 
 impl Default for VerdictRule {
@@ -81,7 +91,7 @@ impl Default for VerdictRule {
     /// blocks; a large excess is 0.2; a later round's effect has additivity
     /// ≥ 0.1; a refit is borderline from 2 seed standard errors; a
     /// centre frequency is contradicted by a spectral shift of 3 standard
-    /// errors.
+    /// errors; the noise-free excess is at least 2 of its standard errors.
     fn default() -> Self {
         Self {
             min_excess_z: 3.0,
@@ -90,6 +100,7 @@ impl Default for VerdictRule {
             min_additivity: 0.1,
             borderline_z: 2.0,
             min_spectral_z: 3.0,
+            min_noise_free_z: 2.0,
         }
     }
 }
@@ -149,7 +160,7 @@ impl VerdictRule {
     ///     gap_explained: None, held_out_losses: vec![],
     ///     params: BTreeMap::from([(path.clone(), 2.33e6)]), params_std: BTreeMap::new(),
     ///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None,
-    ///     additivity: None, failed: None, confirmation: None, spectral_z: Some(5.4),
+    ///     additivity: None, failed: None, confirmation: None, spectral_z: Some(5.4), more_rays: None,
     /// };
     /// let rule = VerdictRule::default();
     /// // Refitted lower where the data's echoes lose frequency along the path.
@@ -172,7 +183,7 @@ impl VerdictRule {
     /// shows an attenuation beyond the model's: positive and at least
     /// [`VerdictRule::min_spectral_z`] standard errors. Where the image names
     /// no effect, the diagnosis names the medium's attenuation on it,
-    /// measured against the round's scene as given (verdict test 9,
+    /// measured against the round's scene as given (verdict test 10,
     /// docs/diagnosis.md).
     ///
     /// ```
@@ -229,6 +240,32 @@ impl VerdictRule {
         offset && alike
     }
 
+    /// Whether `e`'s gain holds without the simulation's noise: its excess
+    /// extrapolated to infinitely many rays ([`EffectResult::more_rays`]) is
+    /// positive and at least [`VerdictRule::min_noise_free_z`] of its
+    /// standard error. `true` where it was not measured.
+    ///
+    /// ```
+    /// use usray_optim::{MoreRays, VerdictRule};
+    /// let rule = VerdictRule::default();
+    /// let look = |g: f64, se: f64| MoreRays {
+    ///     rays: 80, excess: 0.0, excess_std: None, noise_exponent: 1.0,
+    ///     noise_free_excess: g, noise_free_std: Some(se), seconds: 1.0,
+    /// };
+    /// assert!(rule.holds_without_noise(Some(&look(0.30, 0.01))));
+    /// assert!(!rule.holds_without_noise(Some(&look(0.01, 0.006)))); // 1.7 standard errors
+    /// assert!(!rule.holds_without_noise(Some(&look(-0.02, 0.006))));
+    /// assert!(rule.holds_without_noise(None));
+    /// ```
+    #[must_use]
+    pub fn holds_without_noise(&self, more_rays: Option<&super::MoreRays>) -> bool {
+        more_rays.is_none_or(|m| {
+            m.noise_free_excess > 0.0
+                && m.noise_free_std
+                    .is_none_or(|se| m.noise_free_excess >= self.min_noise_free_z * se)
+        })
+    }
+
     /// Whether `e`'s first look is borderline: spread over the image, but
     /// its positive excess between [`VerdictRule::borderline_z`] and
     /// [`VerdictRule::min_excess_z`] of its standard error over the seeds,
@@ -245,7 +282,7 @@ impl VerdictRule {
     ///     gap_explained: None, held_out_losses: vec![], params: BTreeMap::new(),
     ///     params_std: BTreeMap::new(), detection_limit: None, tolerance: None,
     ///     absence_cost: None, absence_cost_std: None, additivity: None, failed: None,
-    ///     confirmation: None, spectral_z: None,
+    ///     confirmation: None, spectral_z: None, more_rays: None,
     /// };
     /// let rule = VerdictRule::default();
     /// // 2.7 standard errors over six seeds, 3.05 over the image: borderline.
@@ -312,7 +349,10 @@ pub struct Verdict {
 /// effect is added. Nor may it be indistinct from its null
 /// ([`EffectResult::indistinct_from_null`]): within its limit of detection
 /// and costing nothing when switched back off, its gain is not shown to be
-/// its own.
+/// its own. Nor may its gain fall away with the simulation's noise
+/// ([`VerdictRule::holds_without_noise`]): extrapolated from the first look
+/// and one at four times the rays to a noise-free simulation, it must stay
+/// significant.
 ///
 /// Among the qualifying refits, those whose held-out shrink comes within
 /// 0.05 of the largest tie (the data do not tell them apart), and
@@ -330,7 +370,7 @@ pub struct Verdict {
 ///     shrink: Some(shrink), shrink_std: Some(0.01), excess: Some(excess),
 ///     excess_std: Some(0.01), excess_spatial_std: Some(spatial), gap_explained: Some(0.5),
 ///     held_out_losses: vec![], params: BTreeMap::new(), params_std: BTreeMap::new(),
-///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None,
+///     detection_limit: None, tolerance: None, absence_cost: None, absence_cost_std: None, additivity: None, failed: None, confirmation: None, spectral_z: None, more_rays: None,
 /// };
 /// let rule = VerdictRule::default();
 /// // Shrinks 0.80 and 0.78 tie; the first has the higher score.
@@ -370,6 +410,13 @@ pub struct Verdict {
 /// assert!(name_effect(&[lowered.clone()], true, &rule).is_none());
 /// lowered.spectral_z = Some(1.0); // a shift alike for every echo
 /// assert_eq!(name_effect(&[lowered], true, &rule).unwrap().0, 0);
+/// // Nor one whose gain falls away with the simulation's noise.
+/// let mut noise_only = refit(0.3, 0.8, 0.7, 0.1);
+/// noise_only.more_rays = Some(usray_optim::MoreRays {
+///     rays: 80, excess: 0.2, excess_std: Some(0.01), noise_exponent: 1.0,
+///     noise_free_excess: 0.033, noise_free_std: Some(0.02), seconds: 1.0,
+/// });
+/// assert!(name_effect(&[noise_only], true, &rule).is_none());
 /// // In a later round, a gain the first round did not foreshadow is no second effect.
 /// let mut jointly_only = refit(0.3, 0.3, 0.28, 0.05);
 /// jointly_only.additivity = Some(0.01);
@@ -407,8 +454,9 @@ pub(crate) fn qualifies(e: &EffectResult, noise_passed: bool, rule: &VerdictRule
 
 /// [`name_effect`]'s tests other than [`VerdictRule::significant`]: large
 /// enough where the noise failed its check, additive in a later round, inside
-/// its range, beyond its tolerance, told from its null and, for a centre
-/// frequency, not contradicted by the measured spectra.
+/// its range, beyond its tolerance, told from its null, for a centre
+/// frequency not contradicted by the measured spectra, and holding without
+/// the simulation's noise.
 fn passes_all_but_significance(e: &EffectResult, noise_passed: bool, rule: &VerdictRule) -> bool {
     let large_enough = noise_passed || e.excess.is_some_and(|x| x >= rule.large_excess);
     let additive = e.additivity.is_none_or(|a| a >= rule.min_additivity);
@@ -418,6 +466,7 @@ fn passes_all_but_significance(e: &EffectResult, noise_passed: bool, rule: &Verd
         && !e.within_tolerance()
         && !e.indistinct_from_null()
         && !rule.spectrum_contradicts(e)
+        && rule.holds_without_noise(e.more_rays.as_ref())
 }
 
 /// Whether `e` would be named but for its first look's standard error over
