@@ -86,7 +86,6 @@ pub(crate) fn more_rays_looks(
     } in due
     {
         let k = *k;
-        let started = Instant::now();
         let after = match held_out(scene, held_data, &renders, &stage.setup) {
             Ok(a) => a.iter().map(|e| e.loss).collect::<Vec<_>>(),
             Err(err) => {
@@ -114,7 +113,6 @@ pub(crate) fn more_rays_looks(
             noise_exponent: p,
             noise_free_excess: g,
             noise_free_std: g_std,
-            seconds: started.elapsed().as_secs_f64(),
         });
     }
     t.elapsed().as_secs_f64()

@@ -232,8 +232,6 @@ pub struct MoreRays {
     pub noise_free_excess: f64,
     /// Its standard error (absent where either look's is).
     pub noise_free_std: Option<f64>,
-    /// Wall time of these renders, seconds.
-    pub seconds: f64,
 }
 
 impl MoreRays {

@@ -250,7 +250,7 @@ impl VerdictRule {
     /// let rule = VerdictRule::default();
     /// let look = |g: f64, se: f64| MoreRays {
     ///     rays: 80, excess: 0.0, excess_std: None, noise_exponent: 1.0,
-    ///     noise_free_excess: g, noise_free_std: Some(se), seconds: 1.0,
+    ///     noise_free_excess: g, noise_free_std: Some(se),
     /// };
     /// assert!(rule.holds_without_noise(Some(&look(0.30, 0.01))));
     /// assert!(!rule.holds_without_noise(Some(&look(0.01, 0.006)))); // 1.7 standard errors
@@ -414,7 +414,7 @@ pub struct Verdict {
 /// let mut noise_only = refit(0.3, 0.8, 0.7, 0.1);
 /// noise_only.more_rays = Some(usray_optim::MoreRays {
 ///     rays: 80, excess: 0.2, excess_std: Some(0.01), noise_exponent: 1.0,
-///     noise_free_excess: 0.033, noise_free_std: Some(0.02), seconds: 1.0,
+///     noise_free_excess: 0.033, noise_free_std: Some(0.02),
 /// });
 /// assert!(name_effect(&[noise_only], true, &rule).is_none());
 /// // In a later round, a gain the first round did not foreshadow is no second effect.
