@@ -8,7 +8,7 @@ use super::held_out::{held_out, mean, mean_and_se, relative_differences};
 use super::noise_budget::{noise_exponent, DEFAULT_NOISE_EXPONENT};
 use super::options::DiagnoseOptions;
 use super::refits::Refitted;
-use super::results::{Confirmation, EffectResult, MoreRays};
+use super::results::{EffectResult, MoreRays};
 use super::verdict::qualifies;
 use crate::objective::Evaluation;
 use std::time::Instant;
@@ -23,9 +23,8 @@ pub(crate) const RAYS_FACTOR: usize = 4;
 /// verdict ([`qualifies`]), and the control (`baseline_scene`, the null
 /// refit's), on the stage's held-out seeds at [`RAYS_FACTOR`] times its
 /// rays, and records in each refit's [`EffectResult::more_rays`] its excess
-/// there and the noise-free excess both looks give. The first look is the
-/// second look's on fresh seeds where one was measured ([`Confirmation`]),
-/// else step 4's. The control is rendered once and shared. Returns the
+/// there and the noise-free excess both looks give. The first look is
+/// [`EffectResult::seeds_look`]. The control is rendered once and shared. Returns the
 /// seconds spent. A render that fails is reported through `progress` and
 /// leaves its refit (or, for the control, every refit) unmeasured.
 #[allow(clippy::too_many_arguments)]
@@ -98,12 +97,8 @@ pub(crate) fn more_rays_looks(
         };
         let (excess, excess_std) =
             mean_and_se(&relative_differences(&control, &after, stage.held_loss));
-        let e = &effects[k];
-        let first = match e.confirmation {
-            Some(Confirmation::Measured {
-                excess, excess_std, ..
-            }) => (excess, excess_std),
-            _ => (e.excess.unwrap_or(0.0), e.excess_std),
+        let Some(first) = effects[k].seeds_look() else {
+            continue;
         };
         let (g, g_std) = MoreRays::extrapolate(first, rays, (excess, excess_std), more, p);
         effects[k].more_rays = Some(MoreRays {

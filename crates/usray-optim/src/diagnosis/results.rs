@@ -310,6 +310,20 @@ pub enum Confirmation {
 }
 
 impl EffectResult {
+    /// The excess over the null refit and its standard error over the seeds
+    /// that decide the seeds' test: a borderline refit's second look on
+    /// fresh seeds where one was measured ([`Confirmation::Measured`]), else
+    /// step 4's first look. `None` when not refitted.
+    #[must_use]
+    pub fn seeds_look(&self) -> Option<(f64, Option<f64>)> {
+        match self.confirmation {
+            Some(Confirmation::Measured {
+                excess, excess_std, ..
+            }) => Some((excess, excess_std)),
+            _ => self.excess.map(|x| (x, self.excess_std)),
+        }
+    }
+
     /// Whether the refit left the effect parameter within 1% of its range's
     /// width from a bound: the data may want a stronger effect than the range
     /// allows (or a wall thinner than the thinnest tried), so the value found is

@@ -259,7 +259,7 @@ mod tests {
         let rule = VerdictRule::default();
         let cf = |c: &[Candidate]| {
             c.iter()
-                .find(|c| c.key.to_string() == CENTER_FREQUENCY)
+                .find(|c| c.key == ParamKey::probe(Field::CenterFrequency))
                 .unwrap()
                 .clone()
         };

@@ -117,14 +117,8 @@ impl VerdictRule {
     /// alone; the blocks' test stays the first look's.
     #[must_use]
     pub fn significant(&self, e: &EffectResult) -> bool {
-        let Some(excess) = e.excess else {
+        let (Some(excess), Some((seeds_excess, seeds_std))) = (e.excess, e.seeds_look()) else {
             return false;
-        };
-        let (seeds_excess, seeds_std) = match e.confirmation {
-            Some(Confirmation::Measured {
-                excess, excess_std, ..
-            }) => (excess, excess_std),
-            _ => (excess, e.excess_std),
         };
         excess > 0.0
             && seeds_excess > 0.0
