@@ -122,6 +122,12 @@ pub struct Candidate {
     /// lowers the loss; refitted jointly with the base parameters from a
     /// departure, it is found (docs/diagnosis.md, "Known limits").
     pub refit_always: bool,
+    /// Scored from its null alone as well as from the best of its onsets,
+    /// keeping the better score ([`crate::score_candidate`]): set where an
+    /// onset comes from outside the image (the centre the echoes' spectra
+    /// show, `widen_centre_frequency`), which may add to the score the
+    /// one-gradient screen at the modelled value gives but not take from it.
+    pub also_scored_from_null: bool,
 }
 
 impl Candidate {
@@ -295,6 +301,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                     learning_rate: wall_learning_rate(dt, range),
                     tolerance: None,
                     refit_always: false,
+                    also_scored_from_null: false,
                 });
             }
         }
@@ -311,6 +318,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             learning_rate: EFFECT_LEARNING_RATE,
             tolerance: None,
             refit_always: false,
+            also_scored_from_null: false,
         });
     }
     let mut materials: Vec<&str> = scene.objects.iter().map(|o| o.material.as_str()).collect();
@@ -337,6 +345,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
                 learning_rate: EFFECT_LEARNING_RATE,
                 tolerance: None,
                 refit_always: false,
+                also_scored_from_null: false,
             });
         }
     }
@@ -388,6 +397,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             learning_rate: EFFECT_LEARNING_RATE,
             tolerance: Some(sound_speed_tolerance(scene, c_img)),
             refit_always: true,
+            also_scored_from_null: false,
         });
     }
     // Pulse length (bandwidth): the transmitted pulse's envelope FWHM in cycles
@@ -412,6 +422,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
         learning_rate: EFFECT_LEARNING_RATE,
         tolerance: None,
         refit_always: false,
+        also_scored_from_null: false,
     });
     if scene.acquisition.depth_gain_db_per_cm == 0.0 {
         out.push(Candidate {
@@ -432,6 +443,7 @@ pub fn catalogue(scene: &Scene) -> Vec<Candidate> {
             learning_rate: 0.3 / DEPTH_GAIN_MAX_DB_PER_CM,
             tolerance: None,
             refit_always: false,
+            also_scored_from_null: false,
         });
     }
     out
@@ -453,6 +465,7 @@ fn volume_scattering(strength: ParamKey, density: ParamKey) -> Candidate {
         learning_rate: EFFECT_LEARNING_RATE,
         tolerance: None,
         refit_always: false,
+        also_scored_from_null: false,
     }
 }
 

@@ -62,6 +62,7 @@ pub fn parameter_candidates(scene: &Scene, calibrated: &[ParamKey]) -> Vec<Candi
             learning_rate: EFFECT_LEARNING_RATE,
             tolerance: None,
             refit_always: false,
+            also_scored_from_null: false,
         }
     };
     for o in &scene.objects {

@@ -438,6 +438,7 @@ mod tests {
             learning_rate: 0.05,
             tolerance: None,
             refit_always: false,
+            also_scored_from_null: false,
         }
     }
 

@@ -617,7 +617,7 @@ fn spectral_paragraph(
 fn spectral_centre_paragraph(r: &mut String, heading: &str, sc: &SpectralCentre) -> fmt::Result {
     writeln!(
         r,
-        "**{heading}:** the measured echoes' spectra lie alike along their path, centred at {:.3} ± {:.3} MHz against your scene's {:.3} MHz as rendered; the centre frequency's candidate range covers ±15% about both, {:.3}–{:.3} MHz, and its screening starts from the better of the two by loss (a range bounds the search, and the spectra measure where to search; the image still decides whether it is named; `usray_signal::spectral_shift`).\n",
+        "**{heading}:** the measured echoes' spectra lie alike along their path, centred at {:.3} ± {:.3} MHz against your scene's {:.3} MHz as rendered; the centre frequency's candidate range covers ±15% about both, {:.3}–{:.3} MHz, and it is scored from the better of the two by loss and from your scene's value alone, keeping the better score (a range bounds the search, and the spectra measure where to search; the image still decides whether it is named; `usray_signal::spectral_shift`).\n",
         sc.centre_hz / 1e6,
         sc.centre_std_hz / 1e6,
         (sc.centre_hz - sc.offset_hz) / 1e6,

@@ -51,9 +51,44 @@ pub struct Score {
 /// half-ray render each when there are several, refined by four more), one
 /// render for the curvature, and one or two to check the Newton step.
 ///
+/// A candidate [`Candidate::also_scored_from_null`] is scored again from its
+/// null alone where the best of its onsets is another value, and keeps the
+/// better of the two scores (with that score's onset and start): an onset from
+/// outside the image may raise its score but not lower it below the
+/// one-gradient screen at the modelled value.
+///
 /// # Errors
 /// A path the scene lacks, or a failing render.
 pub fn score_candidate(
+    c: &Candidate,
+    calibrated: &Scene,
+    measured: &[f64],
+    calibrated_loss: f64,
+    render: &RenderOptions,
+    setup: &LossSetup,
+) -> Result<Score, OptimError> {
+    let best = score_from_onsets(c, calibrated, measured, calibrated_loss, render, setup)?;
+    match c.null {
+        Some(null) if c.also_scored_from_null && best.onset != null => {
+            let alone = Candidate {
+                onsets: vec![null],
+                also_scored_from_null: false,
+                ..c.clone()
+            };
+            let from_null =
+                score_from_onsets(&alone, calibrated, measured, calibrated_loss, render, setup)?;
+            Ok(if from_null.score > best.score {
+                from_null
+            } else {
+                best
+            })
+        }
+        _ => Ok(best),
+    }
+}
+
+/// [`score_candidate`] from the best of [`Candidate::onsets`] alone.
+fn score_from_onsets(
     c: &Candidate,
     calibrated: &Scene,
     measured: &[f64],

@@ -95,7 +95,11 @@ pub(crate) fn measured_shift(
 /// `f_c` plus the shift's offset, as well as about `f_c`, and adds that
 /// centre to its onsets: the range bounds the search about a plausible value,
 /// the screening starts it from the best of its onsets by loss, and the
-/// echoes' spectra measure one. Returns what it did; `None` where the
+/// echoes' spectra measure one. It is scored from the scene's value alone as
+/// well, keeping the better score ([`Candidate::also_scored_from_null`]): the
+/// spectra's centre, which k-Wave's grid alone puts a few percent low, must
+/// not push the candidate below the others it outscores from the scene's
+/// value. Returns what it did; `None` where the
 /// spectra show no other centre or no centre frequency is a candidate.
 ///
 /// The range only widens, and the null stays the scene's value: the image
@@ -119,6 +123,7 @@ pub(crate) fn widen_centre_frequency(
     );
     if !c.onsets.contains(&centre_hz) {
         c.onsets.push(centre_hz);
+        c.also_scored_from_null = true;
     }
     Some(SpectralCentre {
         centre_hz,
@@ -277,6 +282,7 @@ mod tests {
         assert_eq!(shown.range_hz, [widened.range.0, widened.range.1]);
         assert_eq!(widened.onsets, [f_c, f_c - 1e6]);
         assert_eq!(widened.null, Some(f_c));
+        assert!(widened.also_scored_from_null && !nominal.also_scored_from_null);
 
         // Not where the shift grows with the path (an attenuation's), nor
         // where the offset is within 3 standard errors, nor without a shift:
