@@ -11,7 +11,7 @@ use usray::optim::blind::{
 };
 use usray::optim::{
     catalogue, diagnose, parameter_candidates, score_candidate, Candidate, DiagnoseOptions,
-    Diagnosis, Journal, LossSetup, Objective,
+    Diagnosis, Journal, LossSetup, Objective, Score,
 };
 use usray::signal::ChannelData;
 use usray::transport::scene::Owner;
@@ -99,6 +99,18 @@ fn scoring_setup(base: &Scene, data: &Draw) -> (Vec<f64>, RenderOptions, f64) {
         .unwrap()
         .loss;
     (measured, render, base_loss)
+}
+
+/// `c` scored at `base` against `measured` ([`scoring_setup`]'s outputs) with the
+/// default loss.
+fn score_at(
+    c: &Candidate,
+    base: &Scene,
+    measured: &[f64],
+    base_loss: f64,
+    render: &RenderOptions,
+) -> Score {
+    score_candidate(c, base, measured, base_loss, render, &LossSetup::default()).unwrap()
 }
 
 /// Every candidate of the catalogue is a model extension whose parameter at its
@@ -400,28 +412,12 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
         .into_iter()
         .find(|c| c.effect == "sound_speed")
         .unwrap();
-    let several = score_candidate(
-        &speed,
-        &base,
-        &measured,
-        base_loss,
-        &render,
-        &LossSetup::default(),
-    )
-    .unwrap();
-    let null_only = Candidate {
+    let score = |c: &Candidate| score_at(c, &base, &measured, base_loss, &render);
+    let several = score(&speed);
+    let one = score(&Candidate {
         onsets: vec![c0],
         ..speed.clone()
-    };
-    let one = score_candidate(
-        &null_only,
-        &base,
-        &measured,
-        base_loss,
-        &render,
-        &LossSetup::default(),
-    )
-    .unwrap();
+    });
     eprintln!(
         "sound speed +4%: five onsets score {:.3} from {:.1} m/s; null only {:.3} from {:.1} m/s (true {:.1})",
         several.score,
@@ -446,18 +442,10 @@ fn sound_speed_error_past_the_pulse_length_is_scored_from_several_onsets() {
     // Scored from its null as well (as the centre frequency is where the
     // echoes' spectra add an onset): the better of the two scores, with its
     // onset and start, bit for bit (same seed, same renders).
-    let both = score_candidate(
-        &Candidate {
-            also_scored_from_null: true,
-            ..speed.clone()
-        },
-        &base,
-        &measured,
-        base_loss,
-        &render,
-        &LossSetup::default(),
-    )
-    .unwrap();
+    let both = score(&Candidate {
+        also_scored_from_null: true,
+        ..speed.clone()
+    });
     let better = if one.score > several.score {
         one
     } else {
@@ -494,17 +482,7 @@ fn a_candidate_refitted_whatever_its_score_starts_away_from_its_null() {
         speed.refit_always,
         "the catalogue's speed is refitted always"
     );
-    let score = |c: &Candidate| {
-        score_candidate(
-            c,
-            &base,
-            &measured,
-            base_loss,
-            &render,
-            &LossSetup::default(),
-        )
-        .unwrap()
-    };
+    let score = |c: &Candidate| score_at(c, &base, &measured, base_loss, &render);
     let scored_only = score(&Candidate {
         refit_always: false,
         also_scored_from_null: false,
