@@ -55,7 +55,8 @@ pub struct Score {
 /// null alone where the best of its onsets is another value, and keeps the
 /// better of the two scores (with that score's onset and start): an onset from
 /// outside the image may raise its score but not lower it below the
-/// one-gradient screen at the modelled value.
+/// one-gradient screen at the modelled value. Where scoring from the null
+/// fails, the onsets' score stands.
 ///
 /// # Errors
 /// A path the scene lacks, or a failing render.
@@ -75,13 +76,11 @@ pub fn score_candidate(
                 also_scored_from_null: false,
                 ..c.clone()
             };
-            let from_null =
-                score_from_onsets(&alone, calibrated, measured, calibrated_loss, render, setup)?;
-            Ok(if from_null.score > best.score {
-                from_null
-            } else {
-                best
-            })
+            // A failed render from the null keeps the onsets' score.
+            match score_from_onsets(&alone, calibrated, measured, calibrated_loss, render, setup) {
+                Ok(from_null) if from_null.score > best.score => Ok(from_null),
+                _ => Ok(best),
+            }
         }
         _ => Ok(best),
     }
