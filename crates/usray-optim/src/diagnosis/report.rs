@@ -299,8 +299,8 @@ fn story(report: &Report, scale_before: f64, scale_after: f64) -> Result<String,
     }
     if let Some(sc) = &d.spectral_centre {
         spectral_centre_paragraph(&mut r, "The echoes' centre frequency", sc)?;
-        if named_effect(d).is_some_and(|e| e.effect == "element_width") {
-            writeln!(r, "**An element width, or a centre frequency?** Both change how wide the element hears (its directivity goes as `w·f`, Szabo eq. 6.16), and the image barely tells one from the other; the echoes' spectra, which an element's width barely moves, show a centre of {:.3} MHz against your scene's {:.3}. If your probe's centre frequency is not known, measure it (or set it to that centre) and diagnose again.\n", sc.centre_hz / 1e6, (sc.centre_hz - sc.offset_hz) / 1e6)?;
+        if let Some(width) = named_effect(d).filter(|e| e.effect == "element_width") {
+            width_beside_centre_paragraph(&mut r, width, sc)?;
         }
     }
     if let Some(shift) = &d.spectral_shift {
@@ -612,6 +612,34 @@ fn spectral_paragraph(
     )
 }
 
+/// Where `element_width` is named beside a centre frequency the echoes'
+/// spectra show (`sc`): whether the width's change could be the centre
+/// frequency's. An element's directivity goes as `w·f` (Szabo, *Diagnostic
+/// Ultrasound Imaging*, 2nd ed., eq. 6.16), so a wider element hears as a
+/// higher frequency does; a width that moved against the spectra's centre
+/// (narrower for a higher centre, wider for a lower) is not that frequency's
+/// directivity, and the report says so rather than offer the trade.
+fn width_beside_centre_paragraph(
+    r: &mut String,
+    width: &EffectResult,
+    sc: &SpectralCentre,
+) -> fmt::Result {
+    let f_scene = sc.centre_hz - sc.offset_hz;
+    let w_found = width.params.get(&width.path).copied().unwrap_or(f64::NAN);
+    let w_scene = width.null.unwrap_or(width.onset);
+    let same_way = (w_found - w_scene).signum() == sc.offset_hz.signum();
+    if same_way {
+        writeln!(r, "**An element width, or a centre frequency?** Both change how wide the element hears (its directivity goes as `w·f`, Szabo eq. 6.16), and the image barely tells one from the other; the echoes' spectra, which an element's width barely moves, show a centre of {:.3} MHz against your scene's {:.3}. If your probe's centre frequency is not known, measure it (or set it to that centre) and diagnose again.\n", sc.centre_hz / 1e6, f_scene / 1e6)
+    } else {
+        let (moved, hears) = if w_found < w_scene {
+            ("narrower", "wider")
+        } else {
+            ("wider", "narrower")
+        };
+        writeln!(r, "**An element width beside another centre frequency.** The echoes' spectra, which an element's width barely moves, show a centre of {:.3} MHz against your scene's {:.3}, but the image prefers a {moved} element ({:.3} mm for {:.3}), which hears {hears} where that centre would make it hear the other way (directivity goes as `w·f`, Szabo eq. 6.16): the width's gain is not that centre frequency's, and may stand in for something else your model lacks. If your probe's centre frequency is not known, measure it (or set it to that centre) and diagnose again; the width's verdict may then change.\n", sc.centre_hz / 1e6, f_scene / 1e6, w_found * 1e3, w_scene * 1e3)
+    }
+}
+
 /// The centre frequency the echoes' spectra showed and the range it gave the
 /// centre-frequency candidate ([`Diagnosis::spectral_centre`]).
 fn spectral_centre_paragraph(r: &mut String, heading: &str, sc: &SpectralCentre) -> fmt::Result {
@@ -881,7 +909,76 @@ fn residual_kinds(r: &mut String, k: &ResidualReport) -> fmt::Result {
 
 #[cfg(test)]
 mod tests {
-    use super::signed_percent;
+    use super::{signed_percent, width_beside_centre_paragraph};
+    use crate::diagnosis::results::{EffectResult, SpectralCentre};
+    use std::collections::BTreeMap;
+
+    fn width_found(w_m: f64) -> EffectResult {
+        let path = "probe.element_width_m".to_string();
+        EffectResult {
+            effect: "element_width".into(),
+            path: path.clone(),
+            score: 0.02,
+            onset: 0.27e-3,
+            range: [0.1e-3, 0.3e-3],
+            null: Some(0.27e-3),
+            gradient: 1.0,
+            loss_onset: 3e-2,
+            loss_after: Some(2.9e-2),
+            shrink: Some(0.04),
+            shrink_std: Some(0.004),
+            excess: Some(0.04),
+            excess_std: Some(0.004),
+            excess_spatial_std: Some(0.009),
+            gap_explained: Some(0.04),
+            held_out_losses: vec![],
+            params: BTreeMap::from([(path, w_m)]),
+            params_std: BTreeMap::new(),
+            detection_limit: None,
+            tolerance: None,
+            absence_cost: None,
+            absence_cost_std: None,
+            additivity: None,
+            failed: None,
+            confirmation: None,
+            spectral_z: None,
+            more_rays: None,
+        }
+    }
+
+    fn centre(offset_hz: f64) -> SpectralCentre {
+        SpectralCentre {
+            centre_hz: 2.5e6 + offset_hz,
+            centre_std_hz: 5e3,
+            offset_hz,
+            range_hz: [2.1e6, 3.1e6],
+        }
+    }
+
+    #[test]
+    fn a_width_is_offered_as_the_centre_frequencys_trade_only_where_it_moved_its_way() {
+        // w·f sets the directivity: a narrower element hears as a lower centre does.
+        let mut r = String::new();
+        width_beside_centre_paragraph(&mut r, &width_found(0.2e-3), &centre(-0.2e6)).unwrap();
+        assert!(
+            r.contains("An element width, or a centre frequency?"),
+            "{r}"
+        );
+        // A narrower element for a higher centre is not that centre's directivity.
+        let mut r = String::new();
+        width_beside_centre_paragraph(&mut r, &width_found(0.12e-3), &centre(0.16e6)).unwrap();
+        assert!(
+            r.contains("is not that centre frequency's") && r.contains("0.120 mm for 0.270"),
+            "{r}"
+        );
+        // A wider element for a lower centre neither.
+        let mut r = String::new();
+        width_beside_centre_paragraph(&mut r, &width_found(0.3e-3), &centre(-0.1e6)).unwrap();
+        assert!(
+            r.contains("a wider element") && r.contains("hears narrower"),
+            "{r}"
+        );
+    }
 
     #[test]
     fn a_change_that_rounds_to_zero_has_no_sign() {
